@@ -1,0 +1,84 @@
+"""gdabench: a plugin-based benchmark harness for robot-morphology design.
+
+The public API lives here; the modules behind it are implementation details.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .body import DEFAULT_SHAPE, EMPTY, H_ACT, RIGID, SOFT, V_ACT, Body, as_body, is_valid, random_body
+from .config import Experiment, PluginChoice
+from .designer import Designer, ranking_rewards, top_k
+from .environment import Controller, Environment, Evaluation
+from .errors import (
+    ConfigError,
+    DesignerError,
+    GdabenchError,
+    MalformedBodyError,
+    PluginError,
+    RunDirectoryError,
+    UnknownPluginError,
+)
+from .hookspecs import hookimpl
+from .plugins import registry
+from .results import RunDirectory
+from .runner import compare
+from .seeding import designer_seed
+from .specs import ControllerSpec, DesignerSpec, EnvironmentSpec
+
+__version__ = "0.1.0"
+
+
+def make_designer(name: str, *, seed: int = 0, **kwargs: Any) -> Designer:
+    """Build a registered designer outside the harness (seeded exactly as in a run)."""
+    return registry().get("designer", name).spec.load()(seed=designer_seed(seed), **kwargs)
+
+
+def make_env(name: str, **kwargs: Any) -> Environment:
+    """Build a registered environment, e.g. ``make_env("simple", shape=(5, 5))``."""
+    return registry().get("environment", name).spec.load()(**kwargs)
+
+
+def make_controller(name: str, **kwargs: Any) -> Controller:
+    """Build a registered controller."""
+    return registry().get("controller", name).spec.load()(**kwargs)
+
+
+__all__ = [
+    "Body",
+    "ConfigError",
+    "Controller",
+    "ControllerSpec",
+    "DEFAULT_SHAPE",
+    "Designer",
+    "DesignerError",
+    "DesignerSpec",
+    "EMPTY",
+    "Environment",
+    "EnvironmentSpec",
+    "Evaluation",
+    "Experiment",
+    "GdabenchError",
+    "H_ACT",
+    "MalformedBodyError",
+    "PluginChoice",
+    "PluginError",
+    "RIGID",
+    "RunDirectory",
+    "RunDirectoryError",
+    "SOFT",
+    "UnknownPluginError",
+    "V_ACT",
+    "as_body",
+    "compare",
+    "hookimpl",
+    "is_valid",
+    "make_controller",
+    "make_designer",
+    "make_env",
+    "random_body",
+    "ranking_rewards",
+    "registry",
+    "top_k",
+]

@@ -1,0 +1,304 @@
+"""The ``gdabench`` command line.
+
+Errors caused by input are printed as one line (``error: ...``) with a non-zero exit code:
+2 for a bad command (unknown name, bad value), 1 when a run failed while running (its
+directory is kept and can be resumed), 130 when interrupted.  Set ``GDABENCH_DEBUG=1`` to see
+tracebacks.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+from typing import Annotated, Any, Optional
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.table import Table
+
+from .body import parse_shape
+from .config import Experiment, PluginChoice, parse_params, parse_seeds, split_top_level
+from .errors import ConfigError, DesignerError, GdabenchError
+from .plugins import KINDS, registry
+from .results import RunDirectory
+from .runner import GenerationReport, compare as run_compare
+from .summary import summarize
+
+app = typer.Typer(
+    help="Benchmark harness for robot-morphology designers (GA, CPPN-NEAT, generational diffusion).",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+console = Console()
+err_console = Console(stderr=True)
+
+KIND_ALIASES = {"designers": "designer", "envs": "environment", "environments": "environment", "controllers": "controller"}
+
+
+def _fail(message: str, code: int) -> typer.Exit:
+    err_console.print(f"[bold red]error:[/] {message}", highlight=False, soft_wrap=True)
+    return typer.Exit(code)
+
+
+class _Guard:
+    """Turn errors into one line and an exit code; keep the traceback behind GDABENCH_DEBUG."""
+
+    def __init__(self, run_dir: Path | None = None):
+        self.run_dir = run_dir
+
+    def __enter__(self) -> _Guard:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        if exc is None or isinstance(exc, (typer.Exit, typer.Abort, SystemExit)):
+            return False
+        if os.environ.get("GDABENCH_DEBUG"):
+            return False
+        hint = ""
+        if self.run_dir is not None and (self.run_dir / "run.json").exists():
+            hint = f" (results so far are in {self.run_dir}; continue with: gdabench compare --resume {self.run_dir})"
+        if isinstance(exc, KeyboardInterrupt):
+            raise _fail(f"interrupted{hint}", 130)
+        if isinstance(exc, DesignerError):
+            raise _fail(f"{exc}{hint}", 1)
+        if isinstance(exc, GdabenchError):
+            raise _fail(str(exc), 2)
+        raise _fail(f"internal error: {type(exc).__name__}: {exc}{hint} (set GDABENCH_DEBUG=1 for the traceback)", 1)
+
+
+# -- list -------------------------------------------------------------------------------------
+@app.command("list")
+def list_plugins(
+    kind: Annotated[Optional[str], typer.Argument(help="designers, envs or controllers (default: all)")] = None,
+) -> None:
+    """Show every installed designer, environment and controller, and the package it comes from."""
+    with _Guard():
+        kinds = KINDS
+        if kind is not None:
+            if KIND_ALIASES.get(kind, kind) not in KINDS:
+                raise ConfigError(f"unknown kind {kind!r}; choose designers, envs or controllers")
+            kinds = (KIND_ALIASES.get(kind, kind),)  # type: ignore[assignment]
+        reg = registry()
+        for k in kinds:
+            table = Table(title=f"{k}s", title_justify="left", show_edge=False)
+            table.add_column("name", style="bold")
+            table.add_column("description")
+            table.add_column("package")
+            for item in reg.items(k):
+                table.add_row(item.name, item.spec.description, f"{item.distribution} {item.version}".strip())
+            console.print(table)
+
+
+# -- run / compare ----------------------------------------------------------------------------
+Budget = Annotated[int, typer.Option(help="Evaluations per run (unique valid bodies).")]
+Population = Annotated[int, typer.Option(help="Bodies per generation.")]
+Seeds = Annotated[Optional[str], typer.Option(help="Seeds: 0,1,2 or 0..9 (default: 0).")]
+Repetitions = Annotated[Optional[int], typer.Option("--repetitions", "-r", help="Number of seeds: 0..N-1 (instead of --seeds).")]
+Shape = Annotated[str, typer.Option(help="Body shape HxW.")]
+Env = Annotated[str, typer.Option("--env", "-e", help="Environment, optionally with parameters: name[key=value,...].")]
+Controller = Annotated[Optional[str], typer.Option("--controller", "-c", help="Controller for physics environments.")]
+Out = Annotated[Optional[Path], typer.Option("--out", "-o", help="Run directory (default: results/<time>-<env>-<designers>).")]
+DesignerParam = Annotated[
+    Optional[list[str]], typer.Option("--designer-param", "-D", help="Designer parameter KEY=VALUE (all designers) or NAME.KEY=VALUE.")
+]
+EnvParam = Annotated[Optional[list[str]], typer.Option("--env-param", "-E", help="Environment parameter KEY=VALUE.")]
+ControllerParam = Annotated[Optional[list[str]], typer.Option("--controller-param", "-C", help="Controller parameter KEY=VALUE.")]
+Workers = Annotated[int, typer.Option(help="Parallel evaluations.")]
+ExecutorOpt = Annotated[Optional[str], typer.Option("--executor", help="serial or process (default: serial for 1 worker).")]
+Resume = Annotated[Optional[Path], typer.Option(help="Continue the run in this directory (other options are taken from it).")]
+Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
+
+
+def _designer_choices(designers: str, designer_params: list[str] | None) -> list[PluginChoice]:
+    choices = [PluginChoice.parse(text) for text in split_top_level(designers)]
+    if not choices:
+        raise ConfigError("no designer given")
+    shared: dict[str, Any] = {}
+    targeted: dict[str, dict[str, Any]] = {}
+    for item in designer_params or []:
+        key = item.partition("=")[0]
+        if "." in key:
+            target, _, rest = item.partition(".")
+            if not any(target in (c.name, c.label) for c in choices):
+                raise ConfigError(f"--designer-param {item!r} names designer {target!r}, which is not in this run")
+            targeted.setdefault(target, {}).update(parse_params([rest], "designer parameter"))
+        else:
+            shared.update(parse_params([item], "designer parameter"))
+    return [c.with_params({**shared, **targeted.get(c.name, {}), **targeted.get(c.label, {})}) for c in choices]
+
+
+def _execute(
+    designers: str,
+    *,
+    env: str,
+    controller: str | None,
+    budget: int,
+    population: int,
+    seeds: str | None,
+    repetitions: int | None,
+    shape: str,
+    out: Path | None,
+    designer_param: list[str] | None,
+    env_param: list[str] | None,
+    controller_param: list[str] | None,
+    workers: int,
+    executor: str | None,
+    resume: Path | None,
+    quiet: bool,
+) -> None:
+    guard = _Guard(resume or out)
+    with guard:
+        if resume is not None:
+            run = RunDirectory.open(resume)
+            experiment = Experiment.from_json(run.meta["config"])
+        else:
+            env_choice = PluginChoice.parse(env).with_params(parse_params(env_param, "environment parameter"))
+            ctrl_choice = None
+            if controller:
+                ctrl_choice = PluginChoice.parse(controller).with_params(parse_params(controller_param, "controller parameter"))
+            elif controller_param:
+                raise ConfigError("--controller-param given without --controller")
+            experiment = Experiment(
+                designers=tuple(_designer_choices(designers, designer_param)),
+                env=env_choice,
+                controller=ctrl_choice,
+                shape=parse_shape(shape),
+                population=population,
+                budget=budget,
+                seeds=tuple(parse_seeds(seeds, repetitions)),
+            )
+            experiment.validate()
+        runs = len(experiment.designers) * len(experiment.seeds)
+        progress = Progress(
+            TextColumn("{task.description}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("evaluations"),
+            TimeElapsedColumn(),
+            TimeRemainingColumn(),
+            console=err_console,
+            disable=quiet,
+        )
+        done: dict[tuple[str, int], int] = {}
+        if resume is not None:
+            frame = run.load_evaluations()
+            if len(frame):
+                done = {(k[0], int(k[1])): int(v) for k, v in frame.groupby(["designer", "seed"])["n_evals"].max().items()}
+        task = progress.add_task("starting", total=runs * experiment.budget, completed=sum(done.values()))
+
+        def on_generation(report: GenerationReport) -> None:
+            done[(report.designer, report.seed)] = report.n_evals
+            best = "-" if report.best != report.best else f"{report.best:.4g}"
+            progress.update(
+                task,
+                completed=sum(done.values()),
+                description=f"{report.designer} seed {report.seed} gen {report.generation} best {best}",
+            )
+
+        with progress:
+            if out is None and resume is None:
+                from .runner import default_out_dir
+
+                out = default_out_dir(experiment)
+            guard.run_dir = resume or out
+            run = run_compare(
+                experiment,
+                resume or out,
+                resume=resume is not None,
+                workers=workers,
+                executor=executor,
+                on_generation=on_generation,
+                command=["gdabench", *sys.argv[1:]],
+            )
+        _print_summary(run)
+
+
+def _print_summary(run: RunDirectory) -> None:
+    frame = run.load_evaluations()
+    summary = summarize(frame, run.meta.get("env_optimum"))
+    table = Table(title=f"summary ({run.path})", title_justify="left", show_edge=False)
+    has_opt = summary["optimum"].notna().any() if len(summary) else False
+    cols = ["designer", "env", "seeds", "best (median)", "best (IQR)"]
+    cols += ["seeds at optimum", "evals to optimum (median)"] if has_opt else []
+    cols += ["wall s (median)"]
+    for c in cols:
+        table.add_column(c, justify="left" if c in ("designer", "env") else "right")
+    for _, r in summary.iterrows():
+        env = r["env"] + (f" / {r['controller']}" if r["controller"] else "")
+        cells = [str(r["designer"]), env, str(r["seeds"]), f"{r['best_median']:.4g}", f"{r['best_q25']:.4g}-{r['best_q75']:.4g}"]
+        if has_opt:
+            med = r["evals_to_optimum_median"]
+            cells += [f"{r['seeds_at_optimum']}/{r['seeds']}", "not reached" if med == float("inf") else f"{med:.0f}"]
+        cells.append(f"{r['wall_seconds_median']:.1f}")
+        table.add_row(*cells)
+    console.print(table)
+
+
+@app.command()
+def compare(
+    designers: Annotated[str, typer.Option("--designers", "-d", help="Comma-separated designers, e.g. ga,cppn,gda or ga[survivors=5].")] = "",
+    env: Env = "simple",
+    controller: Controller = None,
+    budget: Budget = 1000,
+    population: Population = 25,
+    seeds: Seeds = None,
+    repetitions: Repetitions = None,
+    shape: Shape = "5x5",
+    out: Out = None,
+    designer_param: DesignerParam = None,
+    env_param: EnvParam = None,
+    controller_param: ControllerParam = None,
+    workers: Workers = 1,
+    executor: ExecutorOpt = None,
+    resume: Resume = None,
+    quiet: Quiet = False,
+) -> None:
+    """Run several designers side by side under the same budget and seeds."""
+    if not designers and resume is None:
+        raise _fail("give --designers, e.g. --designers ga,cppn,gda", 2)
+    _execute(**{k: v for k, v in locals().items()})
+
+
+@app.command()
+def run(
+    designer: Annotated[str, typer.Argument(help="Designer, optionally with parameters: name[key=value,...].")],
+    env: Env = "simple",
+    controller: Controller = None,
+    budget: Budget = 1000,
+    population: Population = 25,
+    seeds: Seeds = None,
+    repetitions: Repetitions = None,
+    shape: Shape = "5x5",
+    out: Out = None,
+    designer_param: DesignerParam = None,
+    env_param: EnvParam = None,
+    controller_param: ControllerParam = None,
+    workers: Workers = 1,
+    executor: ExecutorOpt = None,
+    resume: Resume = None,
+    quiet: Quiet = False,
+) -> None:
+    """Run one designer."""
+    _execute(designers=designer, **{k: v for k, v in locals().items() if k != "designer"})
+
+
+@app.command()
+def report(run_dir: Annotated[Path, typer.Argument(help="A run directory written by compare or run.")]) -> None:
+    """Summarise a run directory (tables from evaluations.parquet)."""
+    with _Guard():
+        run = RunDirectory.open(run_dir)
+        status = run.meta.get("status")
+        if status != "complete":
+            err_console.print(f"[yellow]note:[/] run status is {status!r}; summarising the rows written so far")
+        _print_summary(run)
+
+
+def main() -> None:
+    app()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,70 @@
+"""The designer interface: ask for a generation of bodies, tell their rewards.
+
+The harness owns evaluation, the budget, de-duplication, parallelism and logging; a designer
+only proposes bodies and learns from rewards.  Its randomness comes from the
+``numpy.random.SeedSequence`` it is given, and its whole state must survive ``pickle`` (the
+harness checkpoints designers that way after every generation to resume killed runs).
+"""
+
+from __future__ import annotations
+
+import abc
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from .body import DEFAULT_SHAPE, Body
+from .errors import ConfigError
+
+
+class Designer(abc.ABC):
+    """Base class of all designers (ask/tell).
+
+    Rewards passed to :meth:`tell` are floats; ``nan`` marks a body that could not be scored
+    (invalid, or its evaluation failed).  Use :func:`ranking_rewards` to sort such rewards.
+    """
+
+    def __init__(
+        self,
+        *,
+        shape: tuple[int, int] = DEFAULT_SHAPE,
+        population: int = 25,
+        budget: int = 1000,
+        seed: np.random.SeedSequence | int | None = 0,
+    ):
+        if population < 1:
+            raise ConfigError(f"population must be at least 1, got {population}")
+        if budget < 1:
+            raise ConfigError(f"budget must be at least 1, got {budget}")
+        self.shape = tuple(shape)
+        self.population = int(population)
+        self.budget = int(budget)
+        self.seed_sequence = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+        self.rng = np.random.default_rng(self.seed_sequence)
+
+    @abc.abstractmethod
+    def ask(self) -> list[Body]:
+        """Propose the next generation of bodies to evaluate."""
+
+    @abc.abstractmethod
+    def tell(self, bodies: Sequence[Body], rewards: Sequence[float]) -> None:
+        """Receive the rewards of the bodies returned by the last :meth:`ask` (same order)."""
+
+    def proposal_info(self) -> list[Mapping[str, Any]]:
+        """Extra result columns for each body of the last :meth:`ask` (e.g. how it was made).
+
+        Return one mapping per body with scalar values, or an empty list for none.
+        """
+        return []
+
+
+def ranking_rewards(rewards: Sequence[float]) -> np.ndarray:
+    """Rewards as floats with ``nan`` replaced by ``-inf``, ready for sorting."""
+    r = np.asarray(rewards, dtype=float)
+    return np.where(np.isnan(r), -np.inf, r)
+
+
+def top_k(bodies: Sequence[Body], rewards: Sequence[float], k: int) -> tuple[list[Body], list[float]]:
+    """The ``k`` best bodies, best first; ties keep their input order (a stable sort)."""
+    order = np.argsort(-ranking_rewards(rewards), kind="stable")[:k]
+    return [bodies[i] for i in order], [float(rewards[i]) for i in order]

@@ -1,0 +1,22 @@
+"""Built-in designers (registered through the ``gdabench_designers`` hook)."""
+
+from __future__ import annotations
+
+from ..hookspecs import hookimpl
+from ..specs import DesignerSpec
+
+
+@hookimpl
+def gdabench_designers() -> list[DesignerSpec]:
+    return [
+        DesignerSpec(
+            name="ga",
+            factory="gdabench.designers.ga:GeneticAlgorithm",
+            description="Evolution Gym's genetic algorithm: mutation only, survivors 60% -> 0% of the population",
+        ),
+        DesignerSpec(
+            name="random",
+            factory="gdabench.designers.random_search:RandomSearch",
+            description="Fresh random valid bodies every generation: the floor any designer must beat",
+        ),
+    ]

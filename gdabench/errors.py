@@ -1,0 +1,39 @@
+"""Errors a user can act on.
+
+Every problem caused by input (a name, a parameter, a body, a plugin) is raised as a
+:class:`GdabenchError` whose message is one readable line; the CLI prints that line and exits
+non-zero instead of showing a traceback.
+"""
+
+from __future__ import annotations
+
+
+class GdabenchError(Exception):
+    """Base class: the message is meant for the user, as one line."""
+
+
+class ConfigError(GdabenchError, ValueError):
+    """A run was configured with values that cannot work (budget, population, parameters)."""
+
+
+class MalformedBodyError(GdabenchError, ValueError):
+    """A body (array or text) is not a voxel grid of codes 0-4."""
+
+
+class UnknownPluginError(GdabenchError, KeyError):
+    """No designer, environment or controller is registered under the requested name."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0]) if self.args else ""
+
+
+class PluginError(GdabenchError):
+    """A plugin failed to import, broke its contract, or collided with another plugin."""
+
+
+class DesignerError(GdabenchError):
+    """A designer raised or misbehaved during a run; the run directory stays resumable."""
+
+
+class RunDirectoryError(GdabenchError):
+    """A results directory is missing, unreadable, or not a gdabench run."""

@@ -1,0 +1,90 @@
+"""Evaluating one body, with every failure turned into a recorded outcome.
+
+This is the function executors run, in the driver or in worker processes.  An environment
+that raises or returns a non-finite reward yields an ``error`` outcome with its message; the
+run goes on.  Environments and controllers are built once per process and reused.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+from .body import Body
+from .environment import Environment, Evaluation
+
+OK, INVALID, DUPLICATE, ERROR, TIMEOUT = "ok", "invalid", "duplicate", "error", "timeout"
+#: statuses that used an evaluation (and so count against the budget)
+COUNTED = (OK, ERROR, TIMEOUT)
+
+
+@dataclass(frozen=True)
+class Factory:
+    """A picklable recipe for an environment or controller: factory plus keyword arguments."""
+
+    factory: str | Callable[..., Any]
+    params: tuple[tuple[str, Any], ...] = ()
+
+    def key(self) -> str:
+        return repr((self.factory, self.params))
+
+    def build(self) -> Any:
+        from .specs import Spec  # local: keep this module import-light for workers
+
+        fn = Spec("factory", self.factory, "").load()
+        return fn(**dict(self.params))
+
+
+@dataclass(frozen=True)
+class EvalTask:
+    body: Body
+    seed: int
+    env: Factory
+    controller: Factory | None = None
+    workdir: Path | None = None
+
+
+@dataclass(frozen=True)
+class EvalOutcome:
+    reward: float
+    status: str
+    message: str = ""
+    seconds: float = 0.0
+    info: Mapping[str, Any] = field(default_factory=dict)
+
+
+_built: dict[str, Any] = {}
+
+
+def _instance(recipe: Factory, prebuilt: Mapping[str, Any] | None = None) -> Any:
+    key = recipe.key()
+    if prebuilt and key in prebuilt:
+        return prebuilt[key]
+    if key not in _built:
+        _built[key] = recipe.build()
+    return _built[key]
+
+
+def one_line(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {text[0] if text else ''}".rstrip(": ")
+
+
+def evaluate(task: EvalTask, prebuilt: Mapping[str, Any] | None = None) -> EvalOutcome:
+    """Score one body; never raises for a failure of the environment or controller."""
+    start = time.perf_counter()
+    try:
+        env: Environment = _instance(task.env, prebuilt)
+        controller = _instance(task.controller, prebuilt) if task.controller else None
+        result = env.evaluate(task.body, seed=task.seed, controller=controller, workdir=task.workdir)
+        ev = result if isinstance(result, Evaluation) else Evaluation(float(result))
+        reward = float(ev.reward)
+    except Exception as exc:  # noqa: BLE001 - a failing evaluation is data, not a crash
+        return EvalOutcome(math.nan, ERROR, one_line(exc), time.perf_counter() - start)
+    seconds = time.perf_counter() - start
+    if not math.isfinite(reward):
+        return EvalOutcome(math.nan, ERROR, f"environment returned a non-finite reward ({reward})", seconds, dict(ev.info))
+    return EvalOutcome(reward, OK, "", seconds, dict(ev.info))

@@ -1,0 +1,215 @@
+"""The run directory: where every result row, the run's metadata and its checkpoints live.
+
+::
+
+    <run>/run.json              configuration, command line, versions, status
+    <run>/evaluations.parquet   one row per proposed body (see COLUMNS), rewritten every generation
+    <run>/summary.csv           per designer: best reward, evaluations to the optimum, wall time
+    <run>/checkpoints/          pickled designer state after each generation (for --resume)
+
+Every file is replaced atomically (write to a temporary file, then rename), so a run killed at
+any instant leaves readable files behind, missing at most the generation in flight.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+import pickle
+import platform
+import re
+import sys
+import tempfile
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+from typing import Any, Iterable, Mapping
+
+import pandas as pd
+
+from .errors import ConfigError, RunDirectoryError
+
+FORMAT = "gdabench-run/1"
+RUN_JSON = "run.json"
+EVALUATIONS = "evaluations.parquet"
+SUMMARY = "summary.csv"
+CHECKPOINTS = "checkpoints"
+
+#: columns of evaluations.parquet, in order; designers and environments may add their own after these
+COLUMNS: dict[str, str] = {
+    "run_id": "identifier of the compare/run call",
+    "designer": "designer label as given (name, or name[params])",
+    "designer_name": "registered designer name",
+    "env": "environment name",
+    "controller": "controller name ('' when the environment needs none)",
+    "designer_params": "designer parameters as JSON",
+    "env_params": "environment parameters as JSON",
+    "controller_params": "controller parameters as JSON",
+    "shape": "body shape HxW",
+    "population": "population size",
+    "budget": "evaluation budget of the run",
+    "seed": "seed of this repetition",
+    "repetition": "index of the seed in the seed list",
+    "generation": "generation index, from 0",
+    "index": "position of the body in its generation",
+    "body": "body in text form (rows joined by '/'), round-trips through Body.from_text",
+    "body_hash": "stable hash of the body",
+    "reward": "reward (NaN for invalid bodies and failed evaluations)",
+    "status": "ok | invalid | duplicate | error | timeout",
+    "message": "why a body was invalid or its evaluation failed",
+    "n_evals": "evaluations used so far in this run, this row included",
+    "best_so_far": "best reward so far in this run",
+    "eval_seconds": "time spent evaluating this body",
+    "design_seconds": "designer time for this generation (previous tell + ask)",
+    "elapsed_seconds": "wall time of this run when its generation finished",
+    "timestamp": "UTC time the generation was written",
+}
+
+
+def utc_now() -> str:
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def versions(distributions: Mapping[str, str]) -> dict[str, Any]:
+    """Versions of Python, the core libraries and every plugin distribution."""
+
+    def dist_version(name: str) -> str | None:
+        try:
+            return metadata.version(name)
+        except metadata.PackageNotFoundError:
+            return None
+
+    core = {name: dist_version(name) for name in ("gdabench", "numpy", "pandas", "pyarrow", "pluggy", "torch")}
+    return {"python": sys.version.split()[0], **core, "plugins": dict(distributions)}
+
+
+def platform_info() -> dict[str, Any]:
+    return {"system": platform.system(), "release": platform.release(), "machine": platform.machine(), "cpus": os.cpu_count()}
+
+
+@dataclass
+class Checkpoint:
+    """Designer state after a generation; ``designer`` is None once the run is complete."""
+
+    designer: Any
+    next_generation: int
+    complete: bool = False
+
+
+class RunDirectory:
+    """A run's directory on disk."""
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+
+    # -- creation and opening ------------------------------------------------------------------
+    @classmethod
+    def create(cls, path: str | Path, meta: Mapping[str, Any]) -> RunDirectory:
+        run = cls(path)
+        if run.path.exists() and any(run.path.iterdir()):
+            raise ConfigError(f"output directory {run.path} already exists and is not empty; choose another --out or --resume it")
+        run.path.mkdir(parents=True, exist_ok=True)
+        run.write_meta({"format": FORMAT, **meta})
+        return run
+
+    @classmethod
+    def open(cls, path: str | Path) -> RunDirectory:
+        run = cls(path)
+        if not run.path.is_dir():
+            raise RunDirectoryError(f"{run.path} is not a directory")
+        if not (run.path / RUN_JSON).is_file():
+            raise RunDirectoryError(f"{run.path} is not a gdabench run (no {RUN_JSON})")
+        meta = run.meta  # raises if unreadable
+        if meta.get("format") != FORMAT:
+            raise RunDirectoryError(f"{run.path / RUN_JSON} has unknown format {meta.get('format')!r}")
+        return run
+
+    # -- run.json ------------------------------------------------------------------------------
+    @property
+    def meta(self) -> dict[str, Any]:
+        try:
+            return json.loads((self.path / RUN_JSON).read_text())
+        except (OSError, ValueError) as exc:
+            raise RunDirectoryError(f"cannot read {self.path / RUN_JSON}: {exc}") from None
+
+    def write_meta(self, meta: Mapping[str, Any]) -> None:
+        atomic_write_bytes(self.path / RUN_JSON, (json.dumps(meta, indent=2, default=str) + "\n").encode())
+
+    def update_meta(self, **changes: Any) -> None:
+        self.write_meta({**self.meta, **changes})
+
+    # -- evaluations ---------------------------------------------------------------------------
+    @property
+    def evaluations_path(self) -> Path:
+        return self.path / EVALUATIONS
+
+    def load_evaluations(self) -> pd.DataFrame:
+        """The evaluations table (empty, with the core columns, if nothing was written yet)."""
+        if not self.evaluations_path.exists():
+            return pd.DataFrame({c: pd.Series(dtype=object) for c in COLUMNS})
+        try:
+            return pd.read_parquet(self.evaluations_path)
+        except Exception as exc:  # noqa: BLE001 - pyarrow raises several types for corrupt files
+            raise RunDirectoryError(f"cannot read {self.evaluations_path}: {type(exc).__name__}: {exc}") from None
+
+    def write_evaluations(self, frame: pd.DataFrame) -> None:
+        tmp = self.evaluations_path.with_name(f".{EVALUATIONS}.tmp")
+        frame.to_parquet(tmp, index=False)
+        os.replace(tmp, self.evaluations_path)
+
+    # -- checkpoints ---------------------------------------------------------------------------
+    def checkpoint_path(self, label: str, seed: int) -> Path:
+        safe = re.sub(r"[^A-Za-z0-9_.=-]+", "_", label)
+        return self.path / CHECKPOINTS / f"{safe}-seed{seed}.pkl"
+
+    def save_checkpoint(self, label: str, seed: int, checkpoint: Checkpoint) -> None:
+        atomic_write_bytes(self.checkpoint_path(label, seed), pickle.dumps(checkpoint))
+
+    def load_checkpoint(self, label: str, seed: int) -> Checkpoint | None:
+        path = self.checkpoint_path(label, seed)
+        if not path.exists():
+            return None
+        try:
+            return pickle.loads(path.read_bytes())
+        except Exception as exc:  # noqa: BLE001
+            raise RunDirectoryError(f"cannot restore checkpoint {path}: {type(exc).__name__}: {exc}") from None
+
+
+class TableWriter:
+    """Accumulates result rows and rewrites ``evaluations.parquet`` after each generation."""
+
+    def __init__(self, run: RunDirectory, existing: pd.DataFrame | None = None):
+        self.run = run
+        self._frames: list[pd.DataFrame] = [] if existing is None or existing.empty else [existing]
+
+    def frame(self) -> pd.DataFrame:
+        if not self._frames:
+            return pd.DataFrame({c: pd.Series(dtype=object) for c in COLUMNS})
+        if len(self._frames) > 1:
+            self._frames = [pd.concat(self._frames, ignore_index=True)]
+        return self._frames[0]
+
+    def append(self, rows: Iterable[Mapping[str, Any]]) -> None:
+        rows = list(rows)
+        if rows:
+            self._frames.append(pd.DataFrame.from_records(rows))
+            self.run.write_evaluations(self.frame())
+
+    def drop(self, mask_fn) -> None:
+        """Remove rows selected by ``mask_fn(frame) -> bool Series`` (used when resuming)."""
+        frame = self.frame()
+        if not frame.empty:
+            self._frames = [frame.loc[~mask_fn(frame)].reset_index(drop=True)]

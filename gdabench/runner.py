@@ -1,0 +1,310 @@
+"""The harness loop: ask a designer, evaluate its bodies, record every row, tell the rewards.
+
+The runner owns what designers must not: the evaluation budget (counted in evaluations of
+unique valid bodies, as Evolution Gym counts them), de-duplication (a body already scored in
+this run is not evaluated again; its row says ``duplicate`` and the designer is told the known
+reward), validity (invalid bodies are recorded, never scored, and do not use budget),
+failures (recorded as ``error`` rows that do use budget) and writing results after every
+generation together with a checkpoint, so that a killed run resumes where it stopped.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Mapping, Sequence
+
+import pandas as pd
+
+from . import seeding
+from .body import Body, as_body
+from .config import Experiment, PluginChoice
+from .designer import Designer
+from .environment import Environment
+from .errors import DesignerError, GdabenchError, RunDirectoryError
+from .evaluation import COUNTED, DUPLICATE, INVALID, OK, EvalTask, Factory, one_line
+from .executors import make_executor
+from .plugins import Registry, registry
+from .results import COLUMNS, Checkpoint, RunDirectory, TableWriter, platform_info, utc_now, versions
+from .summary import summarize
+
+#: a designer that proposes nothing new for this many generations in a row is stopped
+MAX_STALE_GENERATIONS = 20
+
+
+@dataclass(frozen=True)
+class GenerationReport:
+    """Progress of one run after one generation (passed to the ``on_generation`` callback)."""
+
+    designer: str
+    seed: int
+    generation: int
+    n_evals: int
+    budget: int
+    new_evals: int
+    best: float
+
+
+def build_designer(reg: Registry, experiment: Experiment, choice: PluginChoice, seed: int) -> Designer:
+    """Instantiate a designer for one seed of ``experiment``."""
+    designer = reg.get("designer", choice.name).spec.load()(
+        shape=tuple(experiment.shape),
+        population=experiment.population,
+        budget=experiment.budget,
+        seed=seeding.designer_seed(seed),
+        **choice.params,
+    )
+    if not isinstance(designer, Designer):
+        raise DesignerError(f"designer {choice.name!r}: factory returned {type(designer).__name__}, not a gdabench.Designer")
+    return designer
+
+
+def _json(params: Mapping[str, Any]) -> str:
+    return json.dumps(dict(params), sort_keys=True, default=str)
+
+
+def _shape_text(shape: Sequence[int]) -> str:
+    return f"{shape[0]}x{shape[1]}"
+
+
+def _recipe(spec_factory: Any, params: Mapping[str, Any]) -> Factory:
+    return Factory(spec_factory, tuple(sorted(params.items())))
+
+
+class Runner:
+    """Runs every (designer, seed) of an :class:`Experiment` into one run directory."""
+
+    def __init__(
+        self,
+        experiment: Experiment,
+        *,
+        workers: int = 1,
+        executor: str | None = None,
+        on_generation: Callable[[GenerationReport], None] | None = None,
+        reg: Registry | None = None,
+    ):
+        self.experiment = experiment
+        self.reg = reg or registry()
+        self.on_generation = on_generation or (lambda report: None)
+        exp = experiment
+        env_spec = self.reg.get("environment", exp.env.name).spec
+        self.env_recipe = _recipe(env_spec.factory, {"shape": tuple(exp.shape), **exp.env.params})
+        self.env: Environment = self.env_recipe.build()
+        self.ctrl_recipe = None
+        prebuilt: dict[str, Any] = {self.env_recipe.key(): self.env}
+        if exp.controller is not None:
+            ctrl_spec = self.reg.get("controller", exp.controller.name).spec
+            self.ctrl_recipe = _recipe(ctrl_spec.factory, exp.controller.params)
+            prebuilt[self.ctrl_recipe.key()] = self.ctrl_recipe.build()
+        self.executor = make_executor(executor, workers, prebuilt)
+        for choice in exp.designers:  # constructor errors (bad parameters) surface before any run starts
+            build_designer(self.reg, exp, choice, exp.seeds[0])
+
+    # -- the loop ----------------------------------------------------------------------------------
+    def run_all(self, run: RunDirectory) -> pd.DataFrame:
+        """Run every (seed, designer) pair not yet complete in ``run``; returns the full table."""
+        self.run, self.run_id = run, run.meta["run_id"]
+        self.table = TableWriter(run, run.load_evaluations())
+        try:
+            for repetition, seed in enumerate(self.experiment.seeds):
+                for choice in self.experiment.designers:
+                    self.run_trial(choice, seed, repetition)
+        finally:
+            self.executor.close()
+        return self.table.frame()
+
+    def run_trial(self, choice: PluginChoice, seed: int, repetition: int) -> None:
+        exp, label = self.experiment, choice.label or choice.name
+        checkpoint = self.run.load_checkpoint(label, seed)
+        if checkpoint is not None and checkpoint.complete:
+            return
+        start_gen = checkpoint.next_generation if checkpoint else 0
+        mine = lambda f: (f["designer"] == label) & (f["seed"] == seed)  # noqa: E731
+        self.table.drop(lambda f: mine(f) & (f["generation"] >= start_gen))
+        designer = checkpoint.designer if checkpoint else build_designer(self.reg, exp, choice, seed)
+
+        done = self.table.frame()
+        done = done[mine(done)] if len(done) else done
+        counted = done[done["status"].isin(COUNTED)] if len(done) else done
+        seen: dict[str, float] = dict(zip(counted["body_hash"], counted["reward"])) if len(done) else {}
+        n_evals = len(counted)
+        best = float(done["best_so_far"].iloc[-1]) if len(done) else math.nan
+        clock0 = time.perf_counter() - (float(done["elapsed_seconds"].iloc[-1]) if len(done) else 0.0)
+        constant = {
+            "run_id": self.run_id,
+            "designer": label,
+            "designer_name": choice.name,
+            "env": exp.env.label or exp.env.name,
+            "controller": (exp.controller.label or exp.controller.name) if exp.controller else "",
+            "designer_params": _json(choice.params),
+            "env_params": _json(exp.env.params),
+            "controller_params": _json(exp.controller.params) if exp.controller else "{}",
+            "shape": _shape_text(exp.shape),
+            "population": exp.population,
+            "budget": exp.budget,
+            "seed": seed,
+            "repetition": repetition,
+        }
+        workdir_root = self.run.path / "artifacts" / f"{self.run.checkpoint_path(label, seed).stem}"
+        generation, stale, tell_seconds = start_gen, 0, 0.0
+        while n_evals < exp.budget:
+            t0 = time.perf_counter()
+            bodies, info = self._ask(designer, label, seed)
+            design_seconds = tell_seconds + time.perf_counter() - t0
+
+            rows: list[dict[str, Any]] = []
+            tasks: list[EvalTask] = []
+            task_rows: list[int] = []
+            for index, body in enumerate(bodies):
+                row = {**constant, "generation": generation, "index": index, "body": body.text, "body_hash": body.hash}
+                row.update(info[index] if info else {})
+                reason = self.env.invalid_reason(body)
+                if reason is not None:
+                    row.update(reward=math.nan, status=INVALID, message=reason)
+                elif body.hash in seen:
+                    row.update(reward=seen[body.hash], status=DUPLICATE, message="already evaluated in this run")
+                elif n_evals + len(tasks) >= exp.budget:
+                    break  # budget exhausted: the rest of this generation is never evaluated nor told
+                else:
+                    seen[body.hash] = math.nan  # reserve: later copies in this generation are duplicates
+                    eval_seed = seeding.evaluation_seed(seed, body.hash)
+                    tasks.append(EvalTask(body, eval_seed, self.env_recipe, self.ctrl_recipe, workdir_root / body.hash))
+                    task_rows.append(len(rows))
+                rows.append(row)
+            truncated = len(rows) < len(bodies)
+
+            outcomes = self.executor.map(tasks)
+            for row_i, task, outcome in zip(task_rows, tasks, outcomes):
+                seen[task.body.hash] = outcome.reward
+                rows[row_i].update(reward=outcome.reward, status=outcome.status, message=outcome.message, eval_seconds=outcome.seconds)
+                rows[row_i].update(self._check_extra(outcome.info, "environment"))
+            elapsed = time.perf_counter() - clock0
+            stamp = utc_now()
+            # a duplicate of a body first seen in this same generation gets that body's reward
+            for row in rows:
+                if row["status"] == DUPLICATE:
+                    row["reward"] = seen[row["body_hash"]]
+            for row in rows:
+                if row["status"] in COUNTED:
+                    n_evals += 1
+                    if row["status"] == OK and not (row["reward"] <= best):  # also true while best is nan
+                        best = row["reward"]
+                row.setdefault("eval_seconds", 0.0)
+                row.update(n_evals=n_evals, best_so_far=best, design_seconds=design_seconds, elapsed_seconds=elapsed, timestamp=stamp)
+            self.table.append(rows)
+            self.on_generation(GenerationReport(label, seed, generation, n_evals, exp.budget, len(tasks), best))
+
+            if n_evals >= exp.budget or truncated:
+                break
+            stale = 0 if tasks else stale + 1
+            if stale >= MAX_STALE_GENERATIONS:
+                raise DesignerError(f"designer {label!r} (seed {seed}) proposed no new valid body in {stale} generations in a row")
+            t0 = time.perf_counter()
+            told = [as_body(r["body"]) for r in rows]
+            try:
+                designer.tell(told, [float(r["reward"]) for r in rows])
+            except GdabenchError:
+                raise
+            except Exception as exc:  # noqa: BLE001
+                raise DesignerError(f"designer {label!r} (seed {seed}) raised in tell(): {one_line(exc)}") from exc
+            tell_seconds = time.perf_counter() - t0
+            generation += 1
+            self.run.save_checkpoint(label, seed, Checkpoint(designer, generation))
+        self.run.save_checkpoint(label, seed, Checkpoint(None, generation + 1, complete=True))
+
+    def _ask(self, designer: Designer, label: str, seed: int) -> tuple[list[Body], list[Mapping[str, Any]]]:
+        try:
+            proposed = designer.ask()
+            info = list(designer.proposal_info() or [])
+        except GdabenchError:
+            raise
+        except Exception as exc:  # noqa: BLE001
+            raise DesignerError(f"designer {label!r} (seed {seed}) raised in ask(): {one_line(exc)}") from exc
+        try:
+            bodies = [as_body(b) for b in proposed]
+        except (GdabenchError, TypeError, ValueError) as exc:
+            raise DesignerError(f"designer {label!r} (seed {seed}) proposed a malformed body: {exc}") from None
+        if not bodies:
+            raise DesignerError(f"designer {label!r} (seed {seed}) proposed no bodies")
+        if info and len(info) != len(bodies):
+            raise DesignerError(f"designer {label!r}: proposal_info() has {len(info)} entries for {len(bodies)} bodies")
+        return bodies, [self._check_extra(i, "designer") for i in info]
+
+    @staticmethod
+    def _check_extra(extra: Mapping[str, Any], who: str) -> Mapping[str, Any]:
+        clash = set(extra) & set(COLUMNS)
+        if clash:
+            raise DesignerError(f"{who} extra column {sorted(clash)[0]!r} clashes with a core result column")
+        return extra
+
+
+def _new_meta(experiment: Experiment, reg: Registry, command: Sequence[str] | None, env: Environment, workers: int, executor: str | None) -> dict[str, Any]:
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    return {
+        "run_id": f"{stamp}-{uuid.uuid4().hex[:6]}",
+        "status": "running",
+        "created": utc_now(),
+        "command": list(command if command is not None else sys.argv),
+        "config": experiment.to_json(),
+        "env_optimum": env.optimum,
+        "execution": {"workers": workers, "executor": executor},
+        "versions": versions(reg.distributions()),
+        "platform": platform_info(),
+    }
+
+
+def default_out_dir(experiment: Experiment, root: str | Path = "results") -> Path:
+    names = "-".join(d.name for d in experiment.designers)
+    return Path(root) / f"{time.strftime('%Y%m%d-%H%M%S')}-{experiment.env.name.replace('/', '_')}-{names}"
+
+
+def compare(
+    experiment: Experiment,
+    out: str | Path | None = None,
+    *,
+    resume: bool = False,
+    workers: int = 1,
+    executor: str | None = None,
+    on_generation: Callable[[GenerationReport], None] | None = None,
+    command: Sequence[str] | None = None,
+    reg: Registry | None = None,
+) -> RunDirectory:
+    """Run (or resume) ``experiment`` into ``out`` and return the finished run directory.
+
+    Everything is checked before the directory is created.  On failure the directory's
+    ``run.json`` says ``failed`` (or ``interrupted``) with the error, and the run can be resumed.
+    """
+    reg = reg or registry()
+    if resume:
+        if out is None:
+            raise RunDirectoryError("resume needs the run directory")
+        run = RunDirectory.open(out)
+        meta = run.meta
+        if meta.get("status") == "complete":
+            return run
+        experiment = Experiment.from_json(meta["config"])
+        experiment.validate(reg)
+        runner = Runner(experiment, workers=workers, executor=executor, on_generation=on_generation, reg=reg)
+        run.update_meta(status="running", resumed=[*meta.get("resumed", []), utc_now()], error=None)
+    else:
+        experiment.validate(reg)
+        runner = Runner(experiment, workers=workers, executor=executor, on_generation=on_generation, reg=reg)
+        meta = _new_meta(experiment, reg, command, runner.env, workers, executor)
+        run = RunDirectory.create(out or default_out_dir(experiment), meta)
+    try:
+        frame = runner.run_all(run)
+    except KeyboardInterrupt:
+        run.update_meta(status="interrupted", error="interrupted by the user")
+        raise
+    except BaseException as exc:
+        run.update_meta(status="failed", error=str(exc) if isinstance(exc, GdabenchError) else one_line(exc))
+        raise
+    optimum = run.meta.get("env_optimum")
+    summarize(frame, optimum).to_csv(run.path / "summary.csv", index=False)
+    run.update_meta(status="complete", finished=utc_now())
+    return run

@@ -1,0 +1,69 @@
+"""Specs: what a plugin hook returns to describe one designer, environment or controller.
+
+A spec names its factory by import string (``"package.module:Class"``) so that listing plugins
+never imports their heavy dependencies (torch, pymunk, ...); the factory is imported only
+when a run actually builds the object.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass, field
+from typing import Any, Callable, ClassVar, Mapping
+
+from .errors import PluginError
+
+
+@dataclass(frozen=True)
+class Spec:
+    name: str
+    factory: str | Callable[..., Any]
+    description: str
+    defaults: Mapping[str, Any] = field(default_factory=dict)
+
+    kind: ClassVar[str] = "plugin"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name or any(c in self.name for c in " ,[]="):
+            raise PluginError(f"invalid {self.kind} name {self.name!r}: use a non-empty name without spaces, commas, brackets or '='")
+        if isinstance(self.factory, str) and ":" not in self.factory:
+            raise PluginError(f"{self.kind} {self.name!r}: factory {self.factory!r} must look like 'package.module:attribute'")
+
+    def load(self) -> Callable[..., Any]:
+        """Import and return the factory."""
+        if not isinstance(self.factory, str):
+            return self.factory
+        module_name, _, attr = self.factory.partition(":")
+        try:
+            obj: Any = importlib.import_module(module_name)
+            for part in attr.split("."):
+                obj = getattr(obj, part)
+        except Exception as exc:  # noqa: BLE001 - any import failure is the plugin's, reported in one line
+            raise PluginError(f"{self.kind} {self.name!r}: cannot load {self.factory!r}: {type(exc).__name__}: {exc}") from exc
+        return obj
+
+
+@dataclass(frozen=True)
+class DesignerSpec(Spec):
+    """A designer: ``factory(shape=, population=, budget=, seed=, **params)`` returns a Designer."""
+
+    kind: ClassVar[str] = "designer"
+
+
+@dataclass(frozen=True)
+class EnvironmentSpec(Spec):
+    """An environment: ``factory(shape=, **params)`` returns an Environment.
+
+    ``requires_controller`` tells the harness (without importing anything) that bodies can
+    only be scored together with a controller, e.g. a physics task.
+    """
+
+    requires_controller: bool = False
+    kind: ClassVar[str] = "environment"
+
+
+@dataclass(frozen=True)
+class ControllerSpec(Spec):
+    """A controller: ``factory(**params)`` returns a Controller."""
+
+    kind: ClassVar[str] = "controller"
