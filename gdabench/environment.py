@@ -60,3 +60,13 @@ class Environment(abc.ABC):
     @abc.abstractmethod
     def evaluate(self, body: Body, *, seed: int, controller: Controller | None = None, workdir: Path | None = None) -> float | Evaluation:
         """Score a valid body; ``seed`` drives any randomness of the evaluation."""
+
+    def render_frames(
+        self, body: Body, *, seed: int, controller: Controller | None = None, workdir: Path | None = None
+    ) -> list[Any] | None:
+        """RGB frames (H, W, 3 uint8 arrays) of the body acting, for animations in reports.
+
+        ``workdir`` is the directory the body's evaluation used (e.g. where a trained policy was
+        saved).  Environments with nothing to show return None (the default).
+        """
+        return None
