@@ -26,6 +26,7 @@ from .results import RunDirectory
 from .runner import compare
 from .seeding import designer_seed
 from .specs import ControllerSpec, DesignerSpec, EnvironmentSpec
+from .envs import walker as _walker  # noqa: F401,E402 - registers gdabench/Walker-v0 with Gymnasium (pymunk loads on make)
 
 __version__ = "0.1.0"
 

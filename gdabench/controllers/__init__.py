@@ -8,4 +8,10 @@ from ..specs import ControllerSpec
 
 @hookimpl
 def gdabench_controllers() -> list[ControllerSpec]:
-    return []
+    return [
+        ControllerSpec(
+            name="open-loop",
+            factory="gdabench.controllers.open_loop:OpenLoop",
+            description="Periodic actuation: a sinusoid whose phase depends on the actuator's position (no learning)",
+        ),
+    ]

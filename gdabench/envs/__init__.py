@@ -14,4 +14,10 @@ def gdabench_environments() -> list[EnvironmentSpec]:
             factory="gdabench.envs.simple:SumOfVoxels",
             description="Thesis's simplified reward: sum of the voxel codes (optimum: all vertical actuators)",
         ),
+        EnvironmentSpec(
+            name="walker",
+            factory="gdabench.envs.walker.env:Walker",
+            description="Evolution Gym's Walker-v0 on a pymunk soft-voxel simulator (gdabench/Walker-v0); needs a controller",
+            requires_controller=True,
+        ),
     ]
