@@ -15,6 +15,7 @@ from typing import Annotated, Any, Optional
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
@@ -228,11 +229,11 @@ def _execute(
 
 
 def _print_table(title: str, headers: list[str], rows: list[list[str]]) -> None:
-    table = Table(title=title, title_justify="left", show_edge=False)
+    table = Table(title=escape(title), title_justify="left", show_edge=False)
     for i, c in enumerate(headers):
-        table.add_column(c, justify="left" if i < 2 else "right")
+        table.add_column(escape(c), justify="left" if i < 2 else "right")
     for cells in rows:
-        table.add_row(*cells)
+        table.add_row(*map(escape, cells))  # labels such as ga[survivors=5] are not rich markup
     console.print(table)
 
 

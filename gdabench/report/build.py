@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
 from pathlib import Path
 from typing import Any
@@ -207,6 +208,55 @@ def definitions(confidence: float, survivors: int, near_copy: int) -> list[tuple
     ]
 
 
+def _best_so_far(
+    frame: pd.DataFrame, designers: list[str], budget: int, confidence: float
+) -> tuple[dict[str, tuple[np.ndarray, ...]], dict[str, int], pd.DataFrame]:
+    """Per designer: median best-so-far curve over seeds with its bootstrap band, and as a table."""
+    x = np.arange(1, budget + 1)
+    curves, seeds, parts = {}, {}, []
+    for d in designers:
+        mine = frame[frame["designer"] == d]
+        matrix = np.array([best_so_far_curve(g, budget) for _, g in mine.groupby("seed", sort=True)])
+        median, low, high = median_band(matrix, confidence=confidence)
+        curves[d], seeds[d] = (x, median, low, high), len(matrix)
+        runs = (~np.isnan(matrix)).sum(axis=0)
+        parts.append(pd.DataFrame({"designer": d, "evaluations": x, "median": median, "ci_low": low, "ci_high": high, "runs": runs}))
+    return curves, seeds, pd.concat(parts, ignore_index=True)
+
+
+def _body_figures(
+    frame: pd.DataFrame, runs: pd.DataFrame, designers: list[str], slugs: dict[str, str]
+) -> tuple[list[Figure], dict[str, tuple[Body, int]]]:
+    """The best bodies of each designer, and the best body of every generation of a representative run.
+
+    Also returns each designer's best body and its seed (what an animation shows).
+    """
+    cells, captions, best_of = [], [], {}
+    for d in designers:
+        top = _best_bodies(frame, d, BEST_BODIES)
+        row = [(_body(r["body"]), f"{r['reward']:.4g} (seed {r['seed']}, #{r['n_evals']})", int(r["seed"])) for _, r in top.iterrows()]
+        row = [c for c in row if c[0] is not None]
+        if row:
+            best_of[d] = (row[0][0], row[0][2])
+        row += [(None, "", -1)] * (BEST_BODIES - len(row))
+        cells += [c[0] for c in row]
+        captions += [c[1] for c in row]
+    figures = [
+        Figure("best_bodies.png", "Best bodies per designer", f"The {BEST_BODIES} best distinct bodies each designer found over all seeds: reward (seed, evaluation number).", plots.png(bodies_figure(cells, captions, ncols=BEST_BODIES, row_labels=designers)))
+    ]  # fmt: skip
+    for d in designers:
+        seed = _representative_seed(runs, d)
+        bests = _generation_bests(frame, d, seed)
+        fig = bodies_figure(
+            [_body(r["body"]) if r is not None else None for _, r in bests],
+            [f"gen {g}: {r['reward']:.4g}" if r is not None else f"gen {g}: -" for g, r in bests],
+            ncols=GENERATION_COLUMNS,
+            title=f"{d}, seed {seed}: best body of each generation",
+        )
+        figures.append(Figure(f"bodies_per_generation_{slugs[d]}.png", f"Best body per generation: {d}", f"Representative run (seed {seed}, the median of the designer's best rewards), as in the thesis's figures 5.8-5.11.", plots.png(fig)))  # fmt: skip
+    return figures, best_of
+
+
 def write_report(
     run_dir: str | Path,
     out: str | Path | None = None,
@@ -232,10 +282,8 @@ def write_report(
     target, target_text = _threshold(threshold, meta)
     notes += _incomplete_runs(frame, experiment, budget)
     designers = list(pd.unique(frame["designer"]))
-    slugs: dict[str, str] = {}
     taken: set[str] = set()
-    for d in designers:
-        slugs[d] = _slug(d, taken)
+    slugs = {d: _slug(d, taken) for d in designers}
 
     summary = summarize(frame, target, confidence=confidence)
     runs = per_run(frame, target)
@@ -248,16 +296,8 @@ def write_report(
         "generations.csv": (generations, "reward per generation (min, mean, max) of every run"),
     }
 
-    # best-so-far curves: median over seeds with a bootstrap band
-    x = np.arange(1, budget + 1)
-    curves, seeds, long = {}, {}, []
-    for d in designers:
-        mine = frame[frame["designer"] == d]
-        matrix = np.array([best_so_far_curve(g, budget) for _, g in mine.groupby("seed", sort=True)])
-        median, low, high = median_band(matrix, confidence=confidence)
-        curves[d], seeds[d] = (x, median, low, high), len(matrix)
-        long.append(pd.DataFrame({"designer": d, "evaluations": x, "median": median, "ci_low": low, "ci_high": high, "runs": (~np.isnan(matrix)).sum(axis=0)}))
-    tables["best_so_far.csv"] = (pd.concat(long, ignore_index=True), "median best-so-far reward over seeds at every evaluation count, with its bootstrap interval")
+    curves, seeds, curve_table = _best_so_far(frame, designers, budget, confidence)
+    tables["best_so_far.csv"] = (curve_table, "median best-so-far reward over seeds at every evaluation count, with its bootstrap interval")
     tables["diversity.csv"] = (div, "diversity of the proposals of every generation of every run")
 
     figures_main = [
@@ -265,27 +305,7 @@ def write_report(
         Figure("rewards_per_generation.png", "Reward per generation", "Min / mean / max reward of the bodies evaluated in each generation (as in the thesis's figures 5.1-5.7); median over seeds, band = inter-quartile range.", plots.png(plots.generation_rewards_figure(generations, designers))),
     ]  # fmt: skip
 
-    # bodies: the best of each designer, and the best of every generation of a representative run
-    best_cells, best_captions, best_of = [], [], {}
-    for d in designers:
-        top = _best_bodies(frame, d, BEST_BODIES)
-        cells = [(_body(r["body"]), f"{r['reward']:.4g} (seed {r['seed']}, #{r['n_evals']})") for _, r in top.iterrows()]
-        cells = [c for c in cells if c[0] is not None]
-        if cells:
-            best_of[d] = (cells[0][0], int(top.iloc[0]["seed"]))
-        cells += [(None, "")] * (BEST_BODIES - len(cells))
-        best_cells += [c[0] for c in cells]
-        best_captions += [c[1] for c in cells]
-    body_figures = [
-        Figure("best_bodies.png", "Best bodies per designer", f"The {BEST_BODIES} best distinct bodies each designer found over all seeds: reward (seed, evaluation number).", plots.png(bodies_figure(best_cells, best_captions, ncols=BEST_BODIES, row_labels=designers)))
-    ]  # fmt: skip
-    for d in designers:
-        seed = _representative_seed(runs, d)
-        bests = _generation_bests(frame, d, seed)
-        cells = [_body(r["body"]) if r is not None else None for _, r in bests]
-        captions = [f"gen {g}: {r['reward']:.4g}" if r is not None else f"gen {g}: -" for g, r in bests]
-        fig = bodies_figure(cells, captions, ncols=GENERATION_COLUMNS, title=f"{d}, seed {seed}: best body of each generation")
-        body_figures.append(Figure(f"bodies_per_generation_{slugs[d]}.png", f"Best body per generation: {d}", f"Representative run (seed {seed}, the median of the designer's best rewards), as in the thesis's figures 5.8-5.11.", plots.png(fig)))  # fmt: skip
+    body_figures, best_of = _body_figures(frame, runs, designers, slugs)
 
     sections = [
         Section("Performance", figures_main),
@@ -350,12 +370,13 @@ def _animations(
 
 
 def _write(report: Report, tables: dict[str, tuple[pd.DataFrame, str]]) -> None:
+    files = {fig.filename: fig.data for fig in report.figures}
+    files.update({name: table.to_csv(index=False).encode() for name, (table, _) in tables.items()})
+    files["summary.md"] = render_markdown(report).encode()
+    files["report.html"] = render_html(report).encode()
     try:
-        for fig in report.figures:
-            atomic_write_bytes(report.out / fig.filename, fig.data)
-        for name, (table, _) in tables.items():
-            atomic_write_bytes(report.out / name, table.to_csv(index=False).encode())
-        atomic_write_bytes(report.out / "summary.md", render_markdown(report).encode())
-        atomic_write_bytes(report.out / "report.html", render_html(report).encode())
+        for name, data in files.items():
+            atomic_write_bytes(report.out / name, data)
+            os.chmod(report.out / name, 0o644)  # a report is for sharing (temporary files start private)
     except OSError as exc:
         raise ConfigError(f"cannot write the report to {report.out}: {exc.strerror or exc}") from None

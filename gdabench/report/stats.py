@@ -119,16 +119,17 @@ def median_band(
     correlated.  NaN (a run that has not got that far) is left out of the median.
     """
     runs, points = curves.shape
+    median_of = np.nanmedian if np.isnan(curves).any() else np.median  # same result; np.median is much faster
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns give NaN, as they should
-        median = np.nanmedian(curves, axis=0) if runs else np.full(points, np.nan)
+        median = median_of(curves, axis=0) if runs else np.full(points, np.nan)
         if runs < 2:
             return median, median.copy(), median.copy()
         rng = np.random.default_rng(seed)
         draws = np.empty((resamples, points))
         for start in range(0, resamples, chunk):
             idx = rng.integers(0, runs, size=(min(chunk, resamples - start), runs))
-            draws[start : start + len(idx)] = np.nanmedian(curves[idx], axis=1)
+            draws[start : start + len(idx)] = median_of(curves[idx], axis=1)
     alpha = (1.0 - confidence) / 2.0
     low, high = np.nanquantile(draws, [alpha, 1.0 - alpha], axis=0, method="inverted_cdf")
     return median, low, high
