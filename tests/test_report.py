@@ -373,11 +373,19 @@ class Stage(Environment):
         return frames
 
 
+class Broken(Environment):
+    def evaluate(self, body, *, seed, controller=None, workdir=None):
+        raise RuntimeError("simulator crashed")
+
+
 class StagePlugin:
     @staticmethod
     @hookimpl
     def gdabench_environments():
-        return [EnvironmentSpec(name="stage", factory=Stage, description="toy env with frames")]
+        return [
+            EnvironmentSpec(name="stage", factory=Stage, description="toy env with frames"),
+            EnvironmentSpec(name="broken", factory=Broken, description="every evaluation fails"),
+        ]
 
 
 @pytest.fixture(scope="module")
@@ -423,3 +431,12 @@ def test_no_animations_option_and_missing_plugin(stage_run, tmp_path):
     assert Stage.calls == []
     report = write_report(path, tmp_path / "b", reg=Registry(entry_points=False))  # plugin not installed
     assert any("cannot rebuild the environment" in n and "stage" in n for n in report.notes)
+
+
+def test_run_where_every_evaluation_failed(tmp_path):
+    reg = Registry(entry_points=False, extra_plugins={"stage": StagePlugin})
+    run = compare(_experiment(designers=("random",), env="broken", seeds=(0,), budget=25), tmp_path / "run", reg=reg)
+    report = write_report(run.path, reg=reg, threshold=10)
+    (row,) = report.rows
+    assert row[3] == "-" and row[4] == "0/1" and row[5] == "not reached"
+    assert (run.path / "report" / "report.html").is_file() and (run.path / "report" / "best_bodies.png").is_file()
