@@ -23,7 +23,7 @@ from .config import Experiment, PluginChoice, parse_params, parse_seeds, split_t
 from .errors import ConfigError, DesignerError, GdabenchError
 from .plugins import KINDS, registry
 from .results import RunDirectory
-from .runner import GenerationReport, compare as run_compare
+from .runner import GenerationReport, compare as run_compare, default_out_dir
 from .summary import summarize
 
 app = typer.Typer(
@@ -190,6 +190,8 @@ def _execute(
         task = progress.add_task("starting", total=runs * experiment.budget, completed=sum(done.values()))
 
         def on_generation(report: GenerationReport) -> None:
+            if not progress.live.is_started:  # started late so that set-up errors print alone
+                progress.start()
             done[(report.designer, report.seed)] = report.n_evals
             best = "-" if report.best != report.best else f"{report.best:.4g}"
             progress.update(
@@ -198,12 +200,10 @@ def _execute(
                 description=f"{report.designer} seed {report.seed} gen {report.generation} best {best}",
             )
 
-        with progress:
-            if out is None and resume is None:
-                from .runner import default_out_dir
-
-                out = default_out_dir(experiment)
-            guard.run_dir = resume or out
+        if out is None and resume is None:
+            out = default_out_dir(experiment)
+        guard.run_dir = resume or out
+        try:
             run = run_compare(
                 experiment,
                 resume or out,
@@ -213,6 +213,8 @@ def _execute(
                 on_generation=on_generation,
                 command=["gdabench", *sys.argv[1:]],
             )
+        finally:
+            progress.stop()
         _print_summary(run)
 
 
@@ -283,6 +285,39 @@ def run(
 ) -> None:
     """Run one designer."""
     _execute(designers=designer, **{k: v for k, v in locals().items() if k != "designer"})
+
+
+@app.command()
+def evaluate(
+    body: Annotated[str, typer.Argument(help="Body in text form, rows separated by '/', e.g. 44444/44444/44444/44444/44444.")],
+    env: Env = "simple",
+    controller: Controller = None,
+    env_param: EnvParam = None,
+    controller_param: ControllerParam = None,
+    seed: Annotated[int, typer.Option(help="Run seed (the evaluation seed is derived from it and the body).")] = 0,
+) -> None:
+    """Score one body, exactly as a run with this seed would."""
+    with _Guard():
+        from . import seeding
+        from .body import Body
+        from .evaluation import OK, EvalTask, Factory, evaluate as evaluate_task
+
+        parsed = Body.from_text(body)
+        reg = registry()
+        env_choice = PluginChoice.parse(env).with_params(parse_params(env_param, "environment parameter"))
+        ctrl_choice = PluginChoice.parse(controller).with_params(parse_params(controller_param, "controller parameter")) if controller else None
+        Experiment((PluginChoice("random"),), env_choice, ctrl_choice, shape=parsed.shape, population=1, budget=1).validate(reg)
+        env_recipe = Factory.of(reg.get("environment", env_choice.name).spec.factory, {"shape": parsed.shape, **env_choice.params})
+        reason = env_recipe.build().invalid_reason(parsed)
+        if reason is not None:
+            raise ConfigError(f"body {parsed.text} is invalid for {env_choice.name!r}: {reason}")
+        ctrl_recipe = None
+        if ctrl_choice is not None:
+            ctrl_recipe = Factory.of(reg.get("controller", ctrl_choice.name).spec.factory, ctrl_choice.params)
+        outcome = evaluate_task(EvalTask(parsed, seeding.evaluation_seed(seed, parsed.hash), env_recipe, ctrl_recipe))
+        if outcome.status != OK:
+            raise _fail(f"evaluation failed: {outcome.message}", 1)
+        console.print(f"{outcome.reward:.6g}")
 
 
 @app.command()

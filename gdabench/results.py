@@ -188,6 +188,12 @@ class RunDirectory:
             raise RunDirectoryError(f"cannot restore checkpoint {path}: {type(exc).__name__}: {exc}") from None
 
 
+def _core_first(frame: pd.DataFrame) -> pd.DataFrame:
+    """Core columns in their documented order, then designer/environment extras."""
+    core = [c for c in COLUMNS if c in frame.columns]
+    return frame[core + [c for c in frame.columns if c not in COLUMNS]]
+
+
 class TableWriter:
     """Accumulates result rows and rewrites ``evaluations.parquet`` after each generation."""
 
@@ -199,13 +205,13 @@ class TableWriter:
         if not self._frames:
             return pd.DataFrame({c: pd.Series(dtype=object) for c in COLUMNS})
         if len(self._frames) > 1:
-            self._frames = [pd.concat(self._frames, ignore_index=True)]
+            self._frames = [_core_first(pd.concat(self._frames, ignore_index=True))]
         return self._frames[0]
 
     def append(self, rows: Iterable[Mapping[str, Any]]) -> None:
         rows = list(rows)
         if rows:
-            self._frames.append(pd.DataFrame.from_records(rows))
+            self._frames.append(_core_first(pd.DataFrame.from_records(rows)))
             self.run.write_evaluations(self.frame())
 
     def drop(self, mask_fn) -> None:

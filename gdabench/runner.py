@@ -72,10 +72,6 @@ def _shape_text(shape: Sequence[int]) -> str:
     return f"{shape[0]}x{shape[1]}"
 
 
-def _recipe(spec_factory: Any, params: Mapping[str, Any]) -> Factory:
-    return Factory(spec_factory, tuple(sorted(params.items())))
-
-
 class Runner:
     """Runs every (designer, seed) of an :class:`Experiment` into one run directory."""
 
@@ -93,13 +89,13 @@ class Runner:
         self.on_generation = on_generation or (lambda report: None)
         exp = experiment
         env_spec = self.reg.get("environment", exp.env.name).spec
-        self.env_recipe = _recipe(env_spec.factory, {"shape": tuple(exp.shape), **exp.env.params})
+        self.env_recipe = Factory.of(env_spec.factory, {"shape": tuple(exp.shape), **exp.env.params})
         self.env: Environment = self.env_recipe.build()
         self.ctrl_recipe = None
         prebuilt: dict[str, Any] = {self.env_recipe.key(): self.env}
         if exp.controller is not None:
             ctrl_spec = self.reg.get("controller", exp.controller.name).spec
-            self.ctrl_recipe = _recipe(ctrl_spec.factory, exp.controller.params)
+            self.ctrl_recipe = Factory.of(ctrl_spec.factory, exp.controller.params)
             prebuilt[self.ctrl_recipe.key()] = self.ctrl_recipe.build()
         self.executor = make_executor(executor, workers, prebuilt)
         for choice in exp.designers:  # constructor errors (bad parameters) surface before any run starts
@@ -119,7 +115,7 @@ class Runner:
         return self.table.frame()
 
     def run_trial(self, choice: PluginChoice, seed: int, repetition: int) -> None:
-        exp, label = self.experiment, choice.label or choice.name
+        exp, label = self.experiment, choice.label
         checkpoint = self.run.load_checkpoint(label, seed)
         if checkpoint is not None and checkpoint.complete:
             return
@@ -139,8 +135,8 @@ class Runner:
             "run_id": self.run_id,
             "designer": label,
             "designer_name": choice.name,
-            "env": exp.env.label or exp.env.name,
-            "controller": (exp.controller.label or exp.controller.name) if exp.controller else "",
+            "env": exp.env.label,
+            "controller": exp.controller.label if exp.controller else "",
             "designer_params": _json(choice.params),
             "env_params": _json(exp.env.params),
             "controller_params": _json(exp.controller.params) if exp.controller else "{}",
