@@ -15,6 +15,7 @@ from typing import Annotated, Any, Optional
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
@@ -39,7 +40,7 @@ KIND_ALIASES = {"designers": "designer", "envs": "environment", "environments": 
 
 
 def _fail(message: str, code: int) -> typer.Exit:
-    err_console.print(f"[bold red]error:[/] {message}", highlight=False, soft_wrap=True)
+    err_console.print(f"[bold red]error:[/] {escape(message)}", highlight=False, soft_wrap=True)
     return typer.Exit(code)
 
 
@@ -88,7 +89,7 @@ def list_plugins(
             table.add_column("description")
             table.add_column("package")
             for item in reg.items(k):
-                table.add_row(item.name, item.spec.description, f"{item.distribution} {item.version}".strip())
+                table.add_row(escape(item.name), escape(item.spec.description), escape(f"{item.distribution} {item.version}".strip()))
             console.print(table)
 
 
@@ -197,7 +198,7 @@ def _execute(
             progress.update(
                 task,
                 completed=sum(done.values()),
-                description=f"{report.designer} seed {report.seed} gen {report.generation} best {best}",
+                description=escape(f"{report.designer} seed {report.seed} gen {report.generation} best {best}"),
             )
 
         if out is None and resume is None:
@@ -221,7 +222,7 @@ def _execute(
 def _print_summary(run: RunDirectory) -> None:
     frame = run.load_evaluations()
     summary = summarize(frame, run.meta.get("env_optimum"))
-    table = Table(title=f"summary ({run.path})", title_justify="left", show_edge=False)
+    table = Table(title=escape(f"summary ({run.path})"), title_justify="left", show_edge=False)
     has_opt = summary["optimum"].notna().any() if len(summary) else False
     cols = ["designer", "env", "seeds", "best (median)", "best (IQR)"]
     cols += ["seeds at optimum", "evals to optimum (median)"] if has_opt else []
@@ -235,7 +236,7 @@ def _print_summary(run: RunDirectory) -> None:
             med = r["evals_to_optimum_median"]
             cells += [f"{r['seeds_at_optimum']}/{r['seeds']}", "not reached" if med == float("inf") else f"{med:.0f}"]
         cells.append(f"{r['wall_seconds_median']:.1f}")
-        table.add_row(*cells)
+        table.add_row(*map(escape, cells))
     console.print(table)
 
 
@@ -327,7 +328,7 @@ def report(run_dir: Annotated[Path, typer.Argument(help="A run directory written
         run = RunDirectory.open(run_dir)
         status = run.meta.get("status")
         if status != "complete":
-            err_console.print(f"[yellow]note:[/] run status is {status!r}; summarising the rows written so far")
+            err_console.print(f"[yellow]note:[/] run status is {escape(repr(status))}; summarising the rows written so far")
         _print_summary(run)
 
 

@@ -93,18 +93,26 @@ def test_report_on_non_run_directory(tmp_path):
     assert result.exit_code == 2 and "is not a gdabench run" in result.stderr
 
 
-def test_resume_continues_a_failed_run(tmp_path):
-    out = tmp_path / "run"
-    assert invoke("compare", "-d", "ga", "--budget", "100", "--out", str(out), "-q").exit_code == 0
-    meta = json.loads((out / "run.json").read_text())
-    meta["status"] = "running"
-    (out / "run.json").write_text(json.dumps(meta))
-    (out / "checkpoints" / "ga-seed0.pkl").unlink()  # as if killed before the run finished
-    before = pd.read_parquet(out / "evaluations.parquet")
-    result = invoke("compare", "--resume", str(out), "-q")
+def test_resume_continues_a_killed_run(tmp_path):
+    from gdabench import Experiment, PluginChoice, compare
+
+    class Killed(Exception):
+        pass
+
+    def kill(report):
+        if report.designer == "random" and report.generation == 2:
+            raise Killed
+
+    exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), env=PluginChoice("simple"), budget=100)
+    with pytest.raises(Killed):
+        compare(exp, tmp_path / "run", on_generation=kill)
+    assert json.loads((tmp_path / "run" / "run.json").read_text())["status"] == "failed"
+    result = invoke("compare", "--resume", str(tmp_path / "run"), "-q")
     assert result.exit_code == 0, result.stderr
-    after = pd.read_parquet(out / "evaluations.parquet")
-    pd.testing.assert_frame_equal(before[["body", "reward"]], after[["body", "reward"]])
+    resumed = pd.read_parquet(tmp_path / "run" / "evaluations.parquet")
+    reference = compare(exp, tmp_path / "ref").load_evaluations()
+    pd.testing.assert_frame_equal(resumed[["designer", "body", "reward"]], reference[["designer", "body", "reward"]])
+    assert not (tmp_path / "run" / "pending").exists() and not (tmp_path / "run" / "checkpoints").exists()
 
 
 def test_parse_seeds():

@@ -26,6 +26,7 @@ from gdabench.errors import ConfigError
 from gdabench.plugins import Registry
 from gdabench.runner import compare
 from gdabench.specs import DesignerSpec
+from gdabench.testing import check_designer
 
 SIMPLE = SumOfVoxels(shape=(5, 5))
 
@@ -275,3 +276,7 @@ def test_pickled_designer_resumes_identically():
     untouched = CppnNeat(seed=np.random.SeedSequence(5))
     drive(untouched, 3)  # never pickled: pickling must not change the live run either
     assert drive(clone, 4) == drive(live, 4) == drive(untouched, 4)
+
+
+def test_cppn_passes_the_plugin_conformance_checks():
+    check_designer(CppnNeat)
