@@ -4,9 +4,8 @@
     python benchmarks/reference_results.py --designers ga,random --out /tmp/ref   # any other comparison
 
 It runs ``gdabench compare`` (niced, one thread per process: the machine is shared), resumes
-the run if a previous attempt was interrupted, drops the resume checkpoints of the finished run
-(a complete run never needs them), writes the report, prints every file's size and fails if
-the directory is larger than ``--max-mb`` (committed results must stay small).  The README's
+the run if a previous attempt was interrupted, writes the report, prints every file's size and
+fails if the directory is larger than ``--max-mb`` (committed results must stay small).  The README's
 headline plot and table are ``<out>/report/best_so_far.png`` and the table in
 ``<out>/report/summary.md``.
 """
@@ -16,7 +15,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -56,7 +54,6 @@ def main() -> int:
                   "--workers", args.workers, "--out", str(out), "--quiet", "--no-report")  # fmt: skip
     elif status != "complete":
         _gdabench("compare", "--resume", str(out), "--workers", args.workers, "--quiet", "--no-report")
-    shutil.rmtree(out / "checkpoints", ignore_errors=True)
     _gdabench("report", str(out))
 
     files = sorted(p for p in out.rglob("*") if p.is_file())

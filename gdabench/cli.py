@@ -24,9 +24,9 @@ from .config import Experiment, PluginChoice, parse_params, parse_seeds, split_t
 from .errors import ConfigError, DesignerError, GdabenchError
 from .plugins import KINDS, registry
 from .results import RunDirectory
-from .runner import GenerationReport, compare as run_compare
 from .report.diversity import NEAR_COPY, SURVIVORS
 from .report.tables import summary_cells
+from .runner import GenerationReport, compare as run_compare, default_out_dir
 from .summary import summarize
 
 app = typer.Typer(
@@ -42,7 +42,7 @@ KIND_ALIASES = {"designers": "designer", "envs": "environment", "environments": 
 
 
 def _fail(message: str, code: int) -> typer.Exit:
-    err_console.print(f"[bold red]error:[/] {message}", highlight=False, soft_wrap=True)
+    err_console.print(f"[bold red]error:[/] {escape(message)}", highlight=False, soft_wrap=True)
     return typer.Exit(code)
 
 
@@ -91,7 +91,7 @@ def list_plugins(
             table.add_column("description")
             table.add_column("package")
             for item in reg.items(k):
-                table.add_row(item.name, item.spec.description, f"{item.distribution} {item.version}".strip())
+                table.add_row(escape(item.name), escape(item.spec.description), escape(f"{item.distribution} {item.version}".strip()))
             console.print(table)
 
 
@@ -195,20 +195,20 @@ def _execute(
         task = progress.add_task("starting", total=runs * experiment.budget, completed=sum(done.values()))
 
         def on_generation(report: GenerationReport) -> None:
+            if not progress.live.is_started:  # started late so that set-up errors print alone
+                progress.start()
             done[(report.designer, report.seed)] = report.n_evals
             best = "-" if report.best != report.best else f"{report.best:.4g}"
             progress.update(
                 task,
                 completed=sum(done.values()),
-                description=f"{report.designer} seed {report.seed} gen {report.generation} best {best}",
+                description=escape(f"{report.designer} seed {report.seed} gen {report.generation} best {best}"),
             )
 
-        with progress:
-            if out is None and resume is None:
-                from .runner import default_out_dir
-
-                out = default_out_dir(experiment)
-            guard.run_dir = resume or out
+        if out is None and resume is None:
+            out = default_out_dir(experiment)
+        guard.run_dir = resume or out
+        try:
             run = run_compare(
                 experiment,
                 resume or out,
@@ -218,6 +218,8 @@ def _execute(
                 on_generation=on_generation,
                 command=["gdabench", *sys.argv[1:]],
             )
+        finally:
+            progress.stop()
     if no_report:
         _print_summary(run)
         return
@@ -249,8 +251,8 @@ def _write_report(run_dir: Path, out: Path | None = None, **options: Any) -> Non
     report = write_report(run_dir, out, **options)
     _print_table(f"summary ({report.run_path})", report.headers, report.rows)
     for note in report.notes:
-        err_console.print(f"[yellow]note:[/] {note}", highlight=False, soft_wrap=True)
-    console.print(f"report: {report.out / 'report.html'} (summary: {report.out / 'summary.md'})", highlight=False, soft_wrap=True)
+        err_console.print(f"[yellow]note:[/] {escape(note)}", highlight=False, soft_wrap=True)
+    console.print(escape(f"report: {report.out / 'report.html'} (summary: {report.out / 'summary.md'})"), highlight=False, soft_wrap=True)
 
 
 @app.command()
@@ -301,6 +303,39 @@ def run(
 ) -> None:
     """Run one designer."""
     _execute(designers=designer, **{k: v for k, v in locals().items() if k != "designer"})
+
+
+@app.command()
+def evaluate(
+    body: Annotated[str, typer.Argument(help="Body in text form, rows separated by '/', e.g. 44444/44444/44444/44444/44444.")],
+    env: Env = "simple",
+    controller: Controller = None,
+    env_param: EnvParam = None,
+    controller_param: ControllerParam = None,
+    seed: Annotated[int, typer.Option(help="Run seed (the evaluation seed is derived from it and the body).")] = 0,
+) -> None:
+    """Score one body, exactly as a run with this seed would."""
+    with _Guard():
+        from . import seeding
+        from .body import Body
+        from .evaluation import OK, EvalTask, Factory, evaluate as evaluate_task
+
+        parsed = Body.from_text(body)
+        reg = registry()
+        env_choice = PluginChoice.parse(env).with_params(parse_params(env_param, "environment parameter"))
+        ctrl_choice = PluginChoice.parse(controller).with_params(parse_params(controller_param, "controller parameter")) if controller else None
+        Experiment((PluginChoice("random"),), env_choice, ctrl_choice, shape=parsed.shape, population=1, budget=1).validate(reg)
+        env_recipe = Factory.of(reg.get("environment", env_choice.name).spec.factory, {"shape": parsed.shape, **env_choice.params})
+        reason = env_recipe.build().invalid_reason(parsed)
+        if reason is not None:
+            raise ConfigError(f"body {parsed.text} is invalid for {env_choice.name!r}: {reason}")
+        ctrl_recipe = None
+        if ctrl_choice is not None:
+            ctrl_recipe = Factory.of(reg.get("controller", ctrl_choice.name).spec.factory, ctrl_choice.params)
+        outcome = evaluate_task(EvalTask(parsed, seeding.evaluation_seed(seed, parsed.hash), env_recipe, ctrl_recipe))
+        if outcome.status != OK:
+            raise _fail(f"evaluation failed: {outcome.message}", 1)
+        console.print(f"{outcome.reward:.6g}")
 
 
 @app.command()

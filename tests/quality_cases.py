@@ -5,7 +5,7 @@ designer on one environment for a few seeds and records the best reward reached 
 evaluation counts.  ``tests/test_quality.py`` re-runs every case and compares with the committed
 figures in ``tests/expectations/quality-<env>-<designer>.json``.
 
-Add a designer with one line in ``CASES`` (e.g. ``Case("cppn")``; ``Case("gda", tolerance=...,
+Add a designer with one line in ``CASES`` (e.g. ``Case("gda")``, or ``Case("gda", tolerance=...,
 per_seed=False)`` for a designer whose runs are not bit-identical across machines), then write its
 expectations.
 
@@ -60,6 +60,7 @@ class Case:
 CASES = [
     Case("ga"),
     Case("random"),
+    Case("cppn", budget=50, checkpoints=(1, 5, 10, 25, 50)),  # reaches 100 within ~50 evaluations: look earlier
 ]
 
 

@@ -305,9 +305,11 @@ def test_corrupt_or_missing_files(run_dir, tmp_path):
     (bad / "evaluations.parquet").write_bytes(b"not parquet at all")
     assert "cannot read" in _cli_error(["report", str(bad)])
     (bad / "evaluations.parquet").unlink()
-    assert "no evaluations.parquet yet" in _cli_error(["report", str(bad)])
+    assert "has no evaluations yet" in _cli_error(["report", str(bad)])
+    pd.DataFrame({"designer": ["ga"], "seed": [0], "reward": [1.0]}).to_parquet(bad / "evaluations.parquet")
+    assert "lack the column(s) env, controller, generation" in _cli_error(["report", str(bad)])
     pd.DataFrame({"designer": ["ga"], "reward": [1.0]}).to_parquet(bad / "evaluations.parquet")
-    assert "lacks the column(s)" in _cli_error(["report", str(bad)])
+    assert "lack the column 'seed'" in _cli_error(["report", str(bad)])
     (bad / "run.json").write_text("{ truncated")
     assert "cannot read" in _cli_error(["report", str(bad)])
     assert not (bad / "report").exists()
@@ -326,6 +328,34 @@ def test_run_in_progress_is_reported_as_far_as_it_got(run_dir, table, tmp_path):
     assert "still in progress" in html and "random seed 1: 50 of 100 evaluations" in html
     curve = pd.read_csv(partial / "report" / "best_so_far.csv").set_index(["designer", "evaluations"])
     assert curve.loc[("random", 50), "runs"] == 2 and curve.loc[("random", 51), "runs"] == 1
+
+
+def test_report_of_a_run_while_it_runs_and_after_it_failed(tmp_path):
+    """Rows of unfinished (designer, seed) runs are reported too, with notes saying what is missing."""
+    peeked = {}
+
+    def peek_then_fail(report):
+        if (report.designer, report.seed, report.generation) == ("random", 0, 1):
+            peeked["report"] = write_report(tmp_path / "run", tmp_path / "mid")  # ga seed 0 done, random seed 0 half-way
+        if (report.designer, report.seed, report.generation) == ("ga", 1, 2):
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        compare(_experiment(), tmp_path / "run", on_generation=peek_then_fail)
+    mid = peeked["report"]
+    assert any("status is 'running'" in n for n in mid.notes)
+    assert "random seed 0: 50 of 100 evaluations" in mid.notes
+    assert "ga seed 1: not started" in mid.notes and "random seed 1: not started" in mid.notes
+    assert [row[2] for row in mid.rows] == ["1", "1"]  # one seed per designer so far
+
+    result = CliRunner().invoke(app, ["report", str(tmp_path / "run")])
+    assert result.exit_code == 0, result.output
+    assert "status is 'interrupted'" in result.output and "random seed 1: not started" in result.output
+    runs = pd.read_csv(tmp_path / "run" / "report" / "runs.csv").set_index(["designer", "seed"])
+    assert runs.loc[("ga", 1), "evaluations"] < BUDGET and runs.loc[("random", 0), "evaluations"] == BUDGET
+    curve = pd.read_csv(tmp_path / "run" / "report" / "best_so_far.csv").set_index(["designer", "evaluations"])
+    last = runs.loc[("ga", 1), "evaluations"]
+    assert curve.loc[("ga", last), "runs"] == 2 and curve.loc[("ga", last + 1), "runs"] == 1
 
 
 def test_bad_options(run_dir, tmp_path):

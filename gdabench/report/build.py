@@ -32,7 +32,7 @@ from ..config import Experiment
 from ..errors import ConfigError, GdabenchError, RunDirectoryError
 from ..evaluation import COUNTED, OK
 from ..plugins import Registry, registry
-from ..results import EVALUATIONS, RunDirectory, atomic_write_bytes
+from ..results import RunDirectory, atomic_write_bytes
 from ..summary import per_run, summarize
 from . import plots
 from .animation import animate, build_scorers
@@ -59,14 +59,15 @@ def load_run(run_dir: str | Path) -> tuple[RunDirectory, dict[str, Any], pd.Data
     run = RunDirectory.open(run_dir)
     meta = run.meta
     status = meta.get("status")
-    if not run.evaluations_path.exists():
-        raise RunDirectoryError(f"{run.path} has no {EVALUATIONS} yet (run status {status!r}): nothing to report")
-    frame = run.load_evaluations()
+    try:
+        frame = run.load_evaluations()  # finished runs and the generations of unfinished ones
+    except KeyError as exc:  # a table without the designer/seed keys that rows are merged by
+        raise RunDirectoryError(f"the evaluations of {run.path} lack the column {exc}: not a gdabench run's table") from None
+    if frame.empty:
+        raise RunDirectoryError(f"{run.path} has no evaluations yet (run status {status!r}): nothing to report")
     missing = [c for c in REQUIRED if c not in frame.columns]
     if missing:
-        raise RunDirectoryError(f"{run.evaluations_path} lacks the column(s) {', '.join(missing)}: not a gdabench evaluations table")
-    if frame.empty:
-        raise RunDirectoryError(f"{run.evaluations_path} has no rows yet (run status {status!r}): nothing to report")
+        raise RunDirectoryError(f"the evaluations of {run.path} lack the column(s) {', '.join(missing)}: not a gdabench run's table")
     notes = []
     if status != "complete":
         counted = int(frame["status"].isin(COUNTED).sum())
