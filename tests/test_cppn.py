@@ -19,8 +19,8 @@ from gdabench.cli import app
 from gdabench.config import Experiment, PluginChoice
 from gdabench.designer import Designer
 from gdabench.designers.cppn import CppnNeat
-from gdabench.designers.cppn_body import cppn_voxels
-from gdabench.designers.cppn_config import load_config, shipped_config_text
+from gdabench.designers.cppn.painting import cppn_voxels
+from gdabench.designers.cppn.config import load_config, shipped_config_text
 from gdabench.envs.simple import SumOfVoxels
 from gdabench.errors import ConfigError
 from gdabench.plugins import Registry

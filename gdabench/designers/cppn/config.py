@@ -20,10 +20,10 @@ from pathlib import Path
 import neat
 from neat.math_util import stat_functions
 
-from ..errors import ConfigError
-from .cppn_body import ACTIVATIONS, AGGREGATIONS
+from ...errors import ConfigError
+from .painting import ACTIVATIONS, AGGREGATIONS
 
-SHIPPED_CONFIG = "cppn_neat.cfg"
+SHIPPED_CONFIG = "neat.cfg"
 #: what the CPPN reads and writes; a user config must agree
 NUM_INPUTS = 3  # x, y, distance to the centre
 NUM_OUTPUTS = 5  # one per voxel code

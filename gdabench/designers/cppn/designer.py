@@ -1,6 +1,6 @@
 """Evolution Gym's CPPN-NEAT (``examples/cppn_neat``) as an ask/tell designer on neat-python.
 
-Each genome is a CPPN that paints a body (:mod:`.cppn_body`); NEAT evolves the genomes.  The
+Each genome is a CPPN that paints a body (:mod:`.painting`); NEAT evolves the genomes.  The
 harness owns evaluation, so instead of ``neat.Population.run`` the designer steps neat-python's
 parts itself, in the order Evolution Gym's ``Population.run`` does:
 
@@ -29,11 +29,11 @@ import neat
 import numpy as np
 from neat.reporting import ReporterSet
 
-from ..body import Body, invalid_reason
-from ..designer import Designer
-from ..errors import ConfigError, DesignerError
-from .cppn_body import cppn_voxels
-from .cppn_config import load_config, read_config_text
+from ...body import Body, invalid_reason
+from ...designer import Designer
+from ...errors import ConfigError, DesignerError
+from .painting import cppn_voxels
+from .config import load_config, read_config_text
 
 #: neat-python objects rebuilt from the config text when a pickled designer is restored
 _NEAT_PARTS = ("_config", "_stagnation", "_reproduction", "_species")
