@@ -33,7 +33,9 @@ def _gdabench(*args: str) -> None:
     env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
     command = ["nice", "-n", "10", sys.executable, "-m", "gdabench", *args]
     print("+", " ".join(command[3:]), flush=True)
-    subprocess.run(command, check=True, env=env)
+    code = subprocess.run(command, env=env).returncode
+    if code:
+        raise SystemExit(code)  # gdabench has printed why, in one line
 
 
 def main() -> int:
@@ -43,11 +45,14 @@ def main() -> int:
     parser.add_argument("--budget", default="1000")
     parser.add_argument("--seeds", default="0..9")
     parser.add_argument("--workers", default="1")
-    parser.add_argument("--out", type=Path, default=ROOT / "results" / "reference" / "simple")
+    parser.add_argument("--out", type=Path, help="default: results/reference/simple in the repository")
     parser.add_argument("--max-mb", type=float, default=5.0, help="fail if the results directory is larger")
     args = parser.parse_args()
 
     out: Path = args.out
+    if out is None:  # relative, so that the committed run.json and report name no machine's paths
+        os.chdir(ROOT)
+        out = Path("results") / "reference" / "simple"
     status = _status(out)
     if status is None:
         _gdabench("compare", "--designers", args.designers, "--env", args.env, "--budget", args.budget, "--seeds", args.seeds,
