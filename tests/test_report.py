@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import base64
 import io
 import json
 import math
@@ -233,8 +234,6 @@ def test_html_is_self_contained(report, run_dir):
     assert [r for r in parser.refs if r[0] != "img"] == []  # no links, scripts, stylesheets
     assert "url(" not in text and "@import" not in text and "<link" not in text and "<script" not in text
     for _, _, value in images:  # every embedded image decodes
-        import base64
-
         assert Image.open(io.BytesIO(base64.b64decode(value.split(",", 1)[1]))).format == "PNG"
     for row in report.rows:
         for cell in row:
