@@ -20,11 +20,8 @@ class MalformedBodyError(GdabenchError, ValueError):
     """A body (array or text) is not a voxel grid of codes 0-4."""
 
 
-class UnknownPluginError(GdabenchError, KeyError):
+class UnknownPluginError(ConfigError):
     """No designer, environment or controller is registered under the requested name."""
-
-    def __str__(self) -> str:  # KeyError would quote the message
-        return str(self.args[0]) if self.args else ""
 
 
 class PluginError(GdabenchError):
