@@ -354,6 +354,23 @@ def report(
         _write_report(run_dir, out, threshold=threshold, survivors=survivors, near_copy=near_copy, animations=animations)
 
 
+@app.command()
+def replay(
+    run_dir: Annotated[Path, typer.Argument(help="A run directory written by compare or run.")],
+    body: Annotated[Optional[str], typer.Option("--body", help="Hash (or unique prefix) of the body to replay (default: the best).")] = None,
+    designer: Annotated[Optional[str], typer.Option("--designer", help="Only consider this designer's bodies.")] = None,
+    gif: Annotated[Optional[Path], typer.Option("--gif", help="Write an animation of the body acting to this GIF file.")] = None,
+) -> None:
+    """Replay a body of a run as it was scored (ppo replays the policy it saved, no retraining)."""
+    with _Guard():
+        from .replay import replay_run
+
+        done = replay_run(run_dir, body_hash=body, designer=designer, gif=gif)
+        console.print(f"{done.designer} seed {done.seed} body {done.body.text} ({done.body.hash}): reward {done.reward:.6g}", highlight=False)
+        if done.gif is not None:
+            console.print(f"animation: {done.gif}", highlight=False)
+
+
 def main() -> None:
     app()
 

@@ -86,6 +86,9 @@ class TrainResult:
     best_index: int
     evaluations: list[Evaluated]
     timesteps: int
+    #: per rollout, the mean over its minibatch steps of [PPO loss (ClipPPOLoss's objective +
+    #: value + entropy terms), its value term]
+    losses: list[list[float]]
     unstable_episodes: int
     diverged: bool
     compiled: bool
@@ -172,6 +175,7 @@ def train(config: PPOConfig, make_env: Callable[[], Any], *, seed: int, device: 
 
         interval = config.evaluation_interval
         steps, diverged = 0, False
+        losses: list[float] = []
         clock = PhaseClock()
         rollouts = iter(collector)
         try:
@@ -190,11 +194,14 @@ def train(config: PPOConfig, make_env: Callable[[], Any], *, seed: int, device: 
                         gae(rollout)
                     buffer.empty()
                     buffer.extend(rollout.reshape(-1).select(*BATCH_KEYS))
+                    total, count = torch.zeros(2, device=device), 0
                     for _ in range(config.n_epochs):
                         epoch = buffer.sample()  # the whole rollout in a random order
                         columns = [epoch[key].split(config.batch_size) for key in BATCH_KEYS]
                         for minibatch in zip(*columns):
-                            update(*minibatch)
+                            total += update(*minibatch)
+                            count += 1
+                    losses.append((total / count).tolist())
                 if not all(torch.isfinite(p).all() for p in nets.parameters()):
                     diverged = True  # the last finite policy gets its final evaluation
                     nets.load_state_dict(last_finite)
@@ -212,6 +219,7 @@ def train(config: PPOConfig, make_env: Callable[[], Any], *, seed: int, device: 
         best_index=best_index,
         evaluations=evaluations,
         timesteps=steps,
+        losses=losses,
         unstable_episodes=envs.unstable_episodes,
         diverged=diverged,
         compiled=compiled,

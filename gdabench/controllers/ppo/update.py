@@ -19,7 +19,7 @@ import time
 import torch
 from tensordict import TensorDict
 from torch import nn
-from torch.func import functional_call, grad
+from torch.func import functional_call, grad_and_value
 from torchrl.objectives import ClipPPOLoss
 
 from .networks import ActorCritic
@@ -54,9 +54,10 @@ class _Objective(nn.Module):
         self.nets = nets
         self._loss = (loss,)  # not a submodule: its parameters are the networks'
 
-    def forward(self, batch: TensorDict) -> torch.Tensor:
+    def forward(self, batch: TensorDict) -> tuple[torch.Tensor, torch.Tensor]:
+        """(summed loss, its value-function term, detached)."""
         out = self._loss[0](batch)
-        return out["loss_objective"] + out["loss_critic"] + out["loss_entropy"]
+        return out["loss_objective"] + out["loss_critic"] + out["loss_entropy"], out["loss_critic"].detach()
 
 
 class MinibatchUpdate:
@@ -72,32 +73,36 @@ class MinibatchUpdate:
         #: seconds the first step took (it includes compiling); None before the first step
         self.first_seconds: float | None = None
 
-    def __call__(self, *tensors: torch.Tensor) -> None:
-        """One step on the minibatch given as one tensor per entry of :data:`BATCH_KEYS`."""
+    def __call__(self, *tensors: torch.Tensor) -> torch.Tensor:
+        """One step on the minibatch given as one tensor per entry of :data:`BATCH_KEYS`;
+        returns the minibatch's (loss, value loss) before the step, detached, stacked."""
         if self.first_seconds is None:
             start = time.perf_counter()
-            self._step(*tensors)
+            loss = self._step(*tensors)
             self.first_seconds = time.perf_counter() - start
-        else:
-            self._step(*tensors)
+            return loss
+        return self._step(*tensors)
 
     def _batch(self, tensors: tuple[torch.Tensor, ...]) -> TensorDict:
         return TensorDict(dict(zip(BATCH_KEYS, tensors)), batch_size=tensors[0].shape[:1])
 
-    def _autograd_step(self, *tensors: torch.Tensor) -> None:
+    def _autograd_step(self, *tensors: torch.Tensor) -> torch.Tensor:
         self.optimizer.zero_grad(set_to_none=True)
-        self.objective(self._batch(tensors)).backward()
+        loss, value_loss = self.objective(self._batch(tensors))
+        loss.backward()
         nn.utils.clip_grad_norm_(self.params.values(), self.max_grad_norm)
         self.optimizer.step()
+        return torch.stack([loss.detach(), value_loss])
 
-    def _functional_step(self, *tensors: torch.Tensor) -> None:
+    def _functional_step(self, *tensors: torch.Tensor) -> torch.Tensor:
         batch = self._batch(tensors)
         detached = {name: p.detach() for name, p in self.params.items()}
-        grads = grad(lambda params: functional_call(self.objective, params, (batch,)))(detached)
+        grads, (loss, value_loss) = grad_and_value(lambda params: functional_call(self.objective, params, (batch,)), has_aux=True)(detached)
         for name, p in self.params.items():
             p.grad = grads[name]
         nn.utils.clip_grad_norm_(self.params.values(), self.max_grad_norm)
         self.optimizer.step()
+        return torch.stack([loss.detach(), value_loss])
 
     def release(self) -> None:
         """Drop compiled code (it is specific to this body's network shapes)."""
