@@ -1,12 +1,14 @@
 """Stability of the walker simulator: random valid bodies driven by random actions.
 
 For each body (Evolution Gym's sampler, ``gdabench.random_body``) one episode of uniformly
-random actions in [0.6, 1.6] is played on ``gdabench/Walker-v0``.  Prints the share of
+random actions in [0.6, 1.6] (or, with ``--actions open-loop``, the open-loop controller's
+default gait) is played on ``gdabench/Walker-v0``.  Prints the share of
 episodes that ended unstable (-3, terminated) with the reasons, and checks that nothing
 slipped through undetected: no exception, no NaN, every observation inside the observation
 space, no step moving the centre of mass implausibly far, every unstable step rewarded -3.
 
     python benchmarks/walker_stability.py --bodies 1000 --steps 500 --seed 0
+    python benchmarks/walker_stability.py --bodies 1000 --actions open-loop
     python benchmarks/walker_stability.py --bodies 200 --physics damping_time=0.01
 """
 
@@ -22,6 +24,7 @@ import gymnasium
 import numpy as np
 
 import gdabench
+from gdabench.controllers.open_loop import OpenLoop
 from gdabench.envs.walker.sim import WalkerPhysics
 
 #: per-step centre-of-mass motion no stable simulation produces (30 m/s at 0.01 s per step)
@@ -39,13 +42,19 @@ def parse_physics(items: list[str]) -> WalkerPhysics:
     return replace(WalkerPhysics(), **changes)
 
 
-def episode(body: gdabench.Body, physics: WalkerPhysics, rng: np.random.Generator, steps: int) -> dict:
+def episode(body: gdabench.Body, physics: WalkerPhysics, rng: np.random.Generator, steps: int, actions: str) -> dict:
     env = gymnasium.make("gdabench/Walker-v0", body=body, physics=physics, max_episode_steps=steps)
     out = {"unstable": None, "nan": False, "outside": False, "implausible": False, "bad_penalty": False, "steps": 0}
     obs, _ = env.reset(seed=0)
     space = env.observation_space
+    gait = OpenLoop().pattern
+    phases = gait.phases(env.unwrapped.actuator_voxels)
     while True:
-        obs, reward, terminated, truncated, info = env.step(rng.uniform(0.6, 1.6, size=env.action_space.shape))
+        if actions == "random":
+            action = rng.uniform(0.6, 1.6, size=env.action_space.shape)
+        else:
+            action = np.clip(gait.action(phases, out["steps"]), 0.6, 1.6)
+        obs, reward, terminated, truncated, info = env.step(action)
         out["steps"] += 1
         if not (np.isfinite(obs).all() and np.isfinite(reward)):
             out["nan"] = True
@@ -66,19 +75,20 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=500)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--shape", default="5x5")
+    parser.add_argument("--actions", choices=("random", "open-loop"), default="random")
     parser.add_argument("--physics", nargs="*", default=[], metavar="KEY=VALUE", help="override WalkerPhysics fields")
     args = parser.parse_args()
     physics = parse_physics(args.physics)
     shape = tuple(int(v) for v in args.shape.split("x"))
-    rng = np.random.default_rng(args.seed)
+    body_rng, action_rng = (np.random.default_rng(s) for s in np.random.SeedSequence(args.seed).spawn(2))
     reasons: collections.Counter[str] = collections.Counter()
     problems: collections.Counter[str] = collections.Counter()
     examples: dict[str, str] = {}
     total_steps, start = 0, time.perf_counter()
     for _ in range(args.bodies):
-        body = gdabench.random_body(rng, shape)
+        body = gdabench.random_body(body_rng, shape)
         try:
-            result = episode(body, physics, rng, args.steps)
+            result = episode(body, physics, action_rng, args.steps, args.actions)
         except Exception as exc:  # noqa: BLE001 - counted and reported, never hidden
             problems["exception"] += 1
             examples.setdefault("exception", f"{body.text}: {type(exc).__name__}: {exc}")
@@ -93,7 +103,7 @@ def main() -> None:
                 examples.setdefault(key, body.text)
     seconds = time.perf_counter() - start
     unstable = sum(reasons.values())
-    print(f"bodies: {args.bodies} ({args.shape}), random actions, {args.steps} steps each, seed {args.seed}")
+    print(f"bodies: {args.bodies} ({args.shape}), {args.actions} actions, {args.steps} steps each, seed {args.seed}")
     print(f"unstable episodes: {unstable} ({100.0 * unstable / args.bodies:.2f}%)")
     for reason, count in reasons.most_common():
         print(f"  {count:5d}  {reason}  (e.g. {examples[reason]})")

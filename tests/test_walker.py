@@ -176,14 +176,24 @@ def test_unstable_simulation_ends_with_minus_three_and_a_finite_observation():
     np.testing.assert_array_equal(obs, obs0)  # the last trustworthy observation
 
 
-def test_episode_is_truncated_after_500_steps_and_is_deterministic():
+def test_episodes_are_truncated_after_500_steps():
+    env = make(WALKER_BODY)
+    env.reset(seed=0)
+    for step in range(1, 501):
+        *_, terminated, truncated, _ = env.step(inchworm_action(env.unwrapped.actuator_voxels, step))
+        assert not terminated
+        assert truncated == (step == 500)
+
+
+def test_reset_restarts_the_episode_and_episodes_are_deterministic():
+    env = make(WALKER_BODY)
     returns = []
     for _ in range(2):
-        env = make(WALKER_BODY)
         env.reset(seed=0)
-        returns.append(inchworm(env, steps=600))
-        assert env.unwrapped.sim is not None
-    assert returns[0] == returns[1]
+        returns.append(inchworm(env, steps=300))
+    fresh = make(WALKER_BODY)
+    fresh.reset(seed=0)
+    assert returns[0] == returns[1] == inchworm(fresh, steps=300)
 
 
 # -- physics --------------------------------------------------------------------------------------
@@ -256,6 +266,19 @@ def test_rigid_block_with_one_actuator_does_not_drift():
         assert abs(total) < 1e-3, ratio
     rigid = env.unwrapped.sim.positions[:4]  # a rigid voxel keeps its shape
     assert np.linalg.norm(rigid[1] - rigid[0]) == pytest.approx(VOXEL, rel=0.01)
+
+
+def test_voxels_that_are_not_joined_collide_instead_of_overlapping():
+    physics = WalkerPhysics()
+    env = make("303/333")  # a U: the slot between the prongs is one voxel wide
+    env.reset(seed=0)
+    hold(env, 0.6, 100)  # the middle actuator would close the slot to 0.6 voxels
+    p = env.unwrapped.sim.positions
+    left = [i for i, (x, y) in enumerate(env.unwrapped.sim.mesh.points) if x == pytest.approx(0.2) and y > 0.25]
+    right = [i for i, (x, y) in enumerate(env.unwrapped.sim.mesh.points) if x == pytest.approx(0.3) and y > 0.25]
+    gaps = [np.linalg.norm(p[a] - p[b]) for a in left for b in right]
+    # the prongs' points touch (without contact the slot would close to about 0.057 m) and stop there
+    assert min(gaps) == pytest.approx(2 * physics.point_radius, abs=0.003)
 
 
 def test_hand_made_gait_moves_forward_and_its_mirror_backward():

@@ -81,6 +81,7 @@ class WalkerEnv(gymnasium.Env):
         self.sim = VoxelSim(np.asarray(self.body.voxels), self.physics, origin=origin, terrain=self.terrain)
         self._com_x = float(self.sim.positions[:, 0].mean())
         self._obs = self._observe()
+        self._untouched = True  # reset() can keep a simulation that has not been stepped
 
     def _observe(self) -> np.ndarray:
         pos, vel = self.sim.positions, self.sim.velocities
@@ -89,7 +90,8 @@ class WalkerEnv(gymnasium.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)  # the simulation itself is deterministic: the seed changes nothing
-        self._new_sim()
+        if not self._untouched:
+            self._new_sim()
         return self._obs.copy(), {}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
@@ -98,6 +100,7 @@ class WalkerEnv(gymnasium.Env):
             raise ValueError(f"Walker-v0 expects {self.action_space.shape[0]} actions (one per actuator), got {ratios.shape[0]}")
         if not np.isfinite(ratios).all():
             raise ValueError("Walker-v0 actions must be finite numbers")
+        self._untouched = False
         self.sim.set_ratios(np.clip(ratios, MIN_RATIO, MAX_RATIO))
         self.sim.step()
         why = self.sim.instability()

@@ -60,7 +60,6 @@ class Mesh:
     spring_rigid: np.ndarray  # (n_springs,) bool: a rigid voxel owns it, so it is a fixed distance
     voxel_corners: np.ndarray  # (n_voxels, 4) point indices TL, TR, BR, BL: a loop around the voxel
     voxel_codes: np.ndarray  # (n_voxels,) codes 1-4
-    voxel_cells: np.ndarray  # (n_voxels, 2) (row, col) in the body array, row 0 on top
     actuator_cells: np.ndarray  # (n_actuators, 3) (row, col, code), in action order
     # actuator drive: contribution j adds drive_k[j] * length(ratio[drive_act[j]]) to spring drive_spring[j]
     drive_spring: np.ndarray
@@ -212,7 +211,6 @@ def build_mesh(
         spring_rigid=np.array(rigid, dtype=bool),
         voxel_corners=np.array(corners, dtype=np.intp).reshape(-1, 4),
         voxel_codes=np.array(codes, dtype=np.int8),
-        voxel_cells=np.array(voxel_cells, dtype=np.intp).reshape(-1, 2),
         actuator_cells=np.array(actuators, dtype=np.intp).reshape(-1, 3),
         drive_spring=drive_arr[:, 0].astype(np.intp),
         drive_act=drive_arr[:, 1].astype(np.intp),

@@ -46,14 +46,14 @@ class WalkerPhysics:
     #: Rigid voxels have no stiffness to set: their edges and diagonals are fixed distances.
     soft_stiffness: float = 24_000.0
     actuator_stiffness: float = 30_000.0
-    soft_diagonal_fraction: float = 0.5
+    soft_diagonal_fraction: float = 0.25
     actuator_diagonal_fraction: float = 0.5
     #: damping (N s/m) of each spring per unit of its stiffness: a relaxation time in seconds
     damping_time: float = 0.02
     #: Coulomb friction coefficient between the points and the terrain
-    friction: float = 1.0
+    friction: float = 2.0
     #: collision radius of a point mass (m); points collide with the terrain and each other
-    point_radius: float = 0.02
+    point_radius: float = 0.045
     #: instability: any point faster than this (m/s) ...
     max_speed: float = 30.0
     #: ... or any voxel whose area falls below this fraction of its rest area (inverted or crushed) ...
