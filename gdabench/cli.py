@@ -107,8 +107,15 @@ DesignerParam = Annotated[
 ]
 EnvParam = Annotated[Optional[list[str]], typer.Option("--env-param", "-E", help="Environment parameter KEY=VALUE.")]
 ControllerParam = Annotated[Optional[list[str]], typer.Option("--controller-param", "-C", help="Controller parameter KEY=VALUE.")]
-Workers = Annotated[int, typer.Option(help="Parallel evaluations.")]
-ExecutorOpt = Annotated[Optional[str], typer.Option("--executor", help="serial or process (default: serial for 1 worker).")]
+Workers = Annotated[
+    Optional[int], typer.Option(help="Evaluations at once (default: 1 for serial, every CPU for process, every cluster CPU for ray).")
+]
+ExecutorOpt = Annotated[
+    Optional[str], typer.Option("--executor", help="serial, process or ray (default: serial for 1 worker, process for more).")
+]
+RayAddress = Annotated[Optional[str], typer.Option(help="Ray cluster to join, e.g. auto or ray://host:10001 (default: start a local one).")]
+Timeout = Annotated[Optional[float], typer.Option(help="Seconds an evaluation may take before it is stopped and recorded as 'timeout'.")]
+Cache = Annotated[Optional[Path], typer.Option(help="Directory of an evaluation cache shared across runs (deterministic environments).")]
 Resume = Annotated[Optional[Path], typer.Option(help="Continue the run in this directory (other options are taken from it).")]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
 
@@ -145,8 +152,11 @@ def _execute(
     designer_param: list[str] | None,
     env_param: list[str] | None,
     controller_param: list[str] | None,
-    workers: int,
+    workers: int | None,
     executor: str | None,
+    ray_address: str | None,
+    timeout: float | None,
+    cache: Path | None,
     resume: Path | None,
     quiet: bool,
 ) -> None:
@@ -211,11 +221,17 @@ def _execute(
                 resume=resume is not None,
                 workers=workers,
                 executor=executor,
+                timeout=timeout,
+                ray_address=ray_address,
+                cache=cache,
                 on_generation=on_generation,
                 command=["gdabench", *sys.argv[1:]],
             )
         finally:
             progress.stop()
+        execution = (run.meta.get("resumed") or [None])[-1] if resume is not None else run.meta.get("execution")
+        if cache is not None and isinstance(execution, dict) and execution.get("cache") is None:
+            err_console.print(f"[yellow]note:[/] environment {escape(repr(experiment.env.name))} is not deterministic; the evaluation cache was not used")
         _print_summary(run)
 
 
@@ -254,8 +270,11 @@ def compare(
     designer_param: DesignerParam = None,
     env_param: EnvParam = None,
     controller_param: ControllerParam = None,
-    workers: Workers = 1,
+    workers: Workers = None,
     executor: ExecutorOpt = None,
+    ray_address: RayAddress = None,
+    timeout: Timeout = None,
+    cache: Cache = None,
     resume: Resume = None,
     quiet: Quiet = False,
 ) -> None:
@@ -279,8 +298,11 @@ def run(
     designer_param: DesignerParam = None,
     env_param: EnvParam = None,
     controller_param: ControllerParam = None,
-    workers: Workers = 1,
+    workers: Workers = None,
     executor: ExecutorOpt = None,
+    ray_address: RayAddress = None,
+    timeout: Timeout = None,
+    cache: Cache = None,
     resume: Resume = None,
     quiet: Quiet = False,
 ) -> None:
