@@ -113,10 +113,12 @@ Workers = Annotated[
 ExecutorOpt = Annotated[
     Optional[str], typer.Option("--executor", help="serial, process or ray (default: serial for 1 worker, process for more).")
 ]
-RayAddress = Annotated[Optional[str], typer.Option(help="Ray cluster to join, e.g. auto or ray://host:10001 (default: start a local one).")]
+RayAddress = Annotated[Optional[str], typer.Option(help="Ray cluster to join: auto (the one this machine is part of) or HOST:PORT (default: start a local one).")]
 Timeout = Annotated[Optional[float], typer.Option(help="Seconds an evaluation may take before it is stopped and recorded as 'timeout'.")]
 Cache = Annotated[Optional[Path], typer.Option(help="Directory of an evaluation cache shared across runs (deterministic environments).")]
-Resume = Annotated[Optional[Path], typer.Option(help="Continue the run in this directory (other options are taken from it).")]
+Resume = Annotated[
+    Optional[Path], typer.Option(help="Continue the run in this directory (its experiment is taken from it; execution options may change).")
+]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
 
 
