@@ -175,7 +175,7 @@ def test_dead_worker_is_replaced_and_others_keep_their_results(reg):
 def test_designer_failure_is_one_line_and_resumable(tmp_path, faulty_site):
     flag = tmp_path / "fail-now"
     flag.touch()
-    args = ["compare", "-d", f"fragile[fail_at=2,flag={flag}]", "--env", "faulty", "--budget", "100", "-q"]
+    args = ["compare", "-d", f"fragile[fail_at=2,flag={flag}]", "--env", "faulty", "--budget", "100", "-q", "--no-report"]
     failed = cli(*args, "--out", str(tmp_path / "run"), site=faulty_site)
     assert failed.returncode == 1
     lines = [line for line in failed.stderr.splitlines() if line.strip()]
@@ -184,7 +184,7 @@ def test_designer_failure_is_one_line_and_resumable(tmp_path, faulty_site):
     run = RunDirectory.open(tmp_path / "run")
     assert run.meta["status"] == "failed" and sorted(run.load_evaluations()["generation"].unique()) == [0, 1]
     flag.unlink()
-    resumed = cli("compare", "--resume", str(tmp_path / "run"), "-q", site=faulty_site)
+    resumed = cli("compare", "--resume", str(tmp_path / "run"), "-q", "--no-report", site=faulty_site)
     assert resumed.returncode == 0, resumed.stderr
     reference = cli(*args, "--out", str(tmp_path / "ref"), site=faulty_site)
     assert reference.returncode == 0, reference.stderr
@@ -209,7 +209,7 @@ def _alive(pid: int) -> bool:
 def test_sigkilled_run_resumes_to_the_uninterrupted_table(tmp_path, faulty_site):
     """A real `gdabench compare` with two workers is SIGKILLed halfway, then resumed serially."""
     out = tmp_path / "killed"
-    args = ["compare", "-d", "ga,random", "--env", "faulty", "--budget", "100", "--seeds", "0,1", "-q"]
+    args = ["compare", "-d", "ga,random", "--env", "faulty", "--budget", "100", "--seeds", "0,1", "-q", "--no-report"]
     proc = cli(*args, "--workers", "2", "--out", str(out), site=faulty_site, env={"GDABENCH_FAULTY_DELAY": "0.05"}, background=True)
     deadline, workers = time.monotonic() + 120, set()
     try:
@@ -232,7 +232,7 @@ def test_sigkilled_run_resumes_to_the_uninterrupted_table(tmp_path, faulty_site)
     assert not any(_alive(p) for p in workers), "worker processes outlived the killed run"
     assert RunDirectory.open(out).meta["status"] == "running"  # as the kill left it
 
-    resumed = cli("compare", "--resume", str(out), "-q", site=faulty_site)
+    resumed = cli("compare", "--resume", str(out), "-q", "--no-report", site=faulty_site)
     assert resumed.returncode == 0, resumed.stderr
     reference = cli(*args, "--out", str(tmp_path / "reference"), site=faulty_site)
     assert reference.returncode == 0, reference.stderr
@@ -276,7 +276,7 @@ def test_cache_skips_failures_and_nondeterministic_environments(tmp_path, reg, f
     assert cache.get(EvalTask(body, 6, task.env)) is None  # another evaluation seed
     assert EvaluationCache(tmp_path / "cache", {"env": "y"}).get(task) is None  # another configuration
     exp = Experiment(designers=(PluginChoice("random"),), env=PluginChoice("noisy"), budget=25)
-    result = cli("compare", "-d", "random", "--env", "noisy", "--budget", "25", "-q", "--cache", str(tmp_path / "c2"), "--out", str(tmp_path / "run"), site=faulty_site)
+    result = cli("compare", "-d", "random", "--env", "noisy", "--budget", "25", "-q", "--no-report", "--cache", str(tmp_path / "c2"), "--out", str(tmp_path / "run"), site=faulty_site)
     assert result.returncode == 0, result.stderr
     assert "not deterministic; the evaluation cache was not used" in result.stderr
     assert not (tmp_path / "c2").exists() and not compare(exp, tmp_path / "api", reg=reg, cache=tmp_path / "c2").load_evaluations()["cached"].any()
