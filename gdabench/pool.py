@@ -32,7 +32,8 @@ from typing import Any, Sequence
 from .errors import GdabenchError
 from .evaluation import ERROR, TIMEOUT, EvalOutcome, EvalTask, Factory, evaluate, one_line, prepare
 
-#: seconds a starting worker may take to import gdabench and build the environment
+#: seconds the pool waits for its first worker to import gdabench and build the environment
+#: (workers that start later, e.g. queued on a busy Ray cluster, may take as long as they need)
 START_TIMEOUT = 300.0
 READY, RESULT, DIED = "ready", "result", "died"
 
@@ -117,9 +118,9 @@ class WorkerPool:
             return
         slot.task, slot.started = index, time.monotonic()
 
-    def _deadline(self, slot: Slot) -> float | None:
+    def _deadline(self, slot: Slot, any_ready: bool) -> float | None:
         if not slot.ready:
-            return slot.born + START_TIMEOUT
+            return None if any_ready else slot.born + START_TIMEOUT
         return None if self.timeout is None else slot.started + self.timeout
 
     def _step(self, outcomes: list[EvalOutcome | None]) -> None:
@@ -127,7 +128,8 @@ class WorkerPool:
         live = [s for s in self.slots if s.task is not None or not s.ready]
         if not live:
             return
-        deadlines = [d for d in map(self._deadline, live) if d is not None]
+        any_ready = any(s.ready for s in self.slots)
+        deadlines = [d for d in (self._deadline(s, any_ready) for s in live) if d is not None]
         timeout = max(0.0, min(deadlines) - time.monotonic()) if deadlines else None
         for slot, kind, payload in self.backend.wait(live, timeout):
             if kind == READY:
@@ -143,12 +145,12 @@ class WorkerPool:
                 self._replace(slot)
         now = time.monotonic()
         for slot in live:
-            deadline = self._deadline(slot)
+            deadline = self._deadline(slot, any_ready)
             if slot not in self.slots or deadline is None or now < deadline or (slot.ready and slot.task is None):
                 continue
             if not slot.ready:
                 self._discard(slot)
-                raise WorkerStartError(f"a worker did not start within {START_TIMEOUT:g} s")
+                raise WorkerStartError(f"no worker started within {START_TIMEOUT:g} s")
             message = f"evaluation did not finish within the {self.timeout:g} s timeout"
             outcomes[slot.task] = EvalOutcome(math.nan, TIMEOUT, message, now - slot.started)  # type: ignore[index]
             self._replace(slot)
