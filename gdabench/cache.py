@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -56,8 +57,12 @@ class EvaluationCache:
 
     def __init__(self, root: str | Path, context: Mapping[str, Any]):
         self.root = Path(root)
-        if self.root.exists() and not self.root.is_dir():
-            raise ConfigError(f"cache {self.root} exists and is not a directory")
+        try:
+            self.root.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ConfigError(f"cannot use {self.root} as the evaluation cache: {exc.strerror or exc}") from None
+        if not os.access(self.root, os.W_OK):
+            raise ConfigError(f"cannot use {self.root} as the evaluation cache: not writable")
         self.context = {"format": FORMAT, **context}
         self._context_json = json.dumps(self.context, sort_keys=True)
 

@@ -27,8 +27,8 @@ from .body import Body, as_body
 from .config import Experiment, PluginChoice
 from .designer import Designer
 from .environment import Environment
-from .errors import ConfigError, DesignerError, GdabenchError, RunDirectoryError
 from .cache import EvaluationCache, recipe_identity
+from .errors import ConfigError, DesignerError, GdabenchError, RunDirectoryError
 from .evaluation import COUNTED, DUPLICATE, INVALID, OK, EvalOutcome, EvalTask, Factory, one_line
 from .executors import make_executor, resolve_workers
 from .plugins import Registry, registry
@@ -334,14 +334,14 @@ def compare(
         experiment.validate(reg)
         if timeout is None:
             timeout = (meta.get("execution") or {}).get("timeout")
-        options = dict(workers=workers, executor=executor, timeout=timeout, ray_address=ray_address, cache=cache)
-        runner = Runner(experiment, **options, on_generation=on_generation, reg=reg)
+    else:
+        experiment.validate(reg)
+    execution = dict(workers=workers, executor=executor, timeout=timeout, ray_address=ray_address, cache=cache)
+    runner = Runner(experiment, **execution, on_generation=on_generation, reg=reg)
+    if resume:
         resumed = {"at": utc_now(), **runner.execution}
         run.update_meta(status="running", resumed=[*meta.get("resumed", []), resumed], error=None)
     else:
-        experiment.validate(reg)
-        options = dict(workers=workers, executor=executor, timeout=timeout, ray_address=ray_address, cache=cache)
-        runner = Runner(experiment, **options, on_generation=on_generation, reg=reg)
         meta = _new_meta(experiment, reg, command, runner.env, runner.execution)
         try:
             run = RunDirectory.create(out or default_out_dir(experiment), meta)

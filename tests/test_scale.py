@@ -275,6 +275,9 @@ def test_cache_skips_failures_and_nondeterministic_environments(tmp_path, reg, f
     assert cache.get(task) == EvalOutcome(14.0, OK, "", 0.0, {"steps": 3}, cached=True)
     assert cache.get(EvalTask(body, 6, task.env)) is None  # another evaluation seed
     assert EvaluationCache(tmp_path / "cache", {"env": "y"}).get(task) is None  # another configuration
+    (tmp_path / "file").touch()
+    with pytest.raises(ConfigError, match="cannot use .*file as the evaluation cache"):
+        EvaluationCache(tmp_path / "file", {})
     exp = Experiment(designers=(PluginChoice("random"),), env=PluginChoice("noisy"), budget=25)
     result = cli("compare", "-d", "random", "--env", "noisy", "--budget", "25", "-q", "--no-report", "--cache", str(tmp_path / "c2"), "--out", str(tmp_path / "run"), site=faulty_site)
     assert result.returncode == 0, result.stderr
