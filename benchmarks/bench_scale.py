@@ -10,12 +10,17 @@ executor on ``simple``, where evaluating costs nothing and only the executor's o
 
 Bodies are evaluated in batches of ``--population`` as the harness does (one batch per
 generation), after a warm-up batch that starts the workers; figures are medians over
-``--repeats``.  Speed-ups measured on a machine shared with other work understate the real one.
+``--repeats``.  Speed-ups measured on a machine shared with other work understate the real one,
+so two figures that do not depend on other load are printed too: *busy*, the share of the
+workers' wall time spent inside evaluations (what the executor leaves idle between bodies is
+its own loss), and, for environments that report ``cpu_seconds`` (the stand-in does), *CPU*,
+the share of the evaluations' wall time they actually had a CPU (what other processes took).
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import statistics
 import sys
@@ -60,20 +65,28 @@ def make_tasks(env: Factory, ctrl: Factory | None, n: int, shape, seed: int) -> 
     return tasks
 
 
-def rate(kind: str, workers: int, tasks: list[EvalTask], population: int, repeats: int, warm: list[Factory]) -> float:
-    """Median evaluations per second over ``repeats`` passes through ``tasks`` in generation-sized batches."""
+def rate(kind: str, workers: int, tasks: list[EvalTask], population: int, repeats: int, warm: list[Factory]) -> tuple[float, float, float]:
+    """Evaluations per second, busy share and CPU share (medians over ``repeats`` passes through ``tasks``)."""
     prebuilt = {r.key(): r.build() for r in warm} if kind == "serial" else None
+    rates, busy, cpu = [], [], []
     with make_executor(kind, workers, prebuilt, warm=warm) as executor:
         executor.map(tasks[:workers])  # start the workers
-        rates = []
         for _ in range(repeats):
             start = time.perf_counter()
             outcomes = [o for i in range(0, len(tasks), population) for o in executor.map(tasks[i : i + population])]
-            rates.append(len(tasks) / (time.perf_counter() - start))
+            wall = time.perf_counter() - start
             bad = [o.message for o in outcomes if o.status != OK]
             if bad:
                 raise SystemExit(f"{kind}: {len(bad)} evaluations failed, e.g. {bad[0]}")
-    return statistics.median(rates)
+            inside = sum(o.seconds for o in outcomes)
+            rates.append(len(tasks) / wall)
+            busy.append(inside / (workers * wall))
+            cpu.append(sum(o.info.get("cpu_seconds", math.nan) for o in outcomes) / inside)
+    return statistics.median(rates), statistics.median(busy), statistics.median(cpu)
+
+
+def shares(busy: float, cpu: float) -> str:
+    return f"busy {busy:4.0%}" + ("" if math.isnan(cpu) else f", CPU {cpu:4.0%}")
 
 
 def main() -> None:
@@ -102,18 +115,18 @@ def main() -> None:
     tasks = make_tasks(env, ctrl, args.evals, shape, seed=1)
     label = args.env + (f" / {args.controller}" if args.controller else "")
     print(f"\nthroughput on {label}: {args.evals} evaluations per pass, batches of {args.population}, median of {args.repeats}")
-    serial = rate("serial", 1, tasks, args.population, args.repeats, warm)
-    print(f"  serial            {serial:8.2f} evals/s  ({1000 / serial:.1f} ms per evaluation)")
+    serial, busy, cpu = rate("serial", 1, tasks, args.population, args.repeats, warm)
+    print(f"  serial            {serial:8.2f} evals/s  ({1000 / serial:.1f} ms per evaluation; {shares(busy, cpu)})")
     for kind in executors:
-        one = rate(kind, 1, tasks, args.population, args.repeats, warm)
-        two = rate(kind, 2, tasks, args.population, args.repeats, warm)
-        print(f"  {kind:<7} 1 worker  {one:8.2f} evals/s")
-        print(f"  {kind:<7} 2 workers {two:8.2f} evals/s  speed-up {two / one:.2f}x")
+        one, busy1, cpu1 = rate(kind, 1, tasks, args.population, args.repeats, warm)
+        two, busy2, cpu2 = rate(kind, 2, tasks, args.population, args.repeats, warm)
+        print(f"  {kind:<7} 1 worker  {one:8.2f} evals/s  ({shares(busy1, cpu1)})")
+        print(f"  {kind:<7} 2 workers {two:8.2f} evals/s  ({shares(busy2, cpu2)})  speed-up {two / one:.2f}x")
 
     simple, _ = recipes(reg, "simple", [], None, [], shape)
     light = make_tasks(simple, None, args.overhead_evals, shape, seed=2)
     print(f"\nper-evaluation overhead on simple: {args.overhead_evals} evaluations per pass, batches of {args.population}")
-    per_eval = {kind: 1e3 / rate(kind, 2 if kind != "serial" else 1, light, args.population, args.repeats, [simple]) for kind in ["serial", *executors]}
+    per_eval = {kind: 1e3 / rate(kind, 2 if kind != "serial" else 1, light, args.population, args.repeats, [simple])[0] for kind in ["serial", *executors]}
     for kind, ms in per_eval.items():
         print(f"  {kind:<7} {ms:7.3f} ms per evaluation" + ("" if kind == "serial" else " (2 workers)"))
     if {"process", "ray"} <= set(per_eval):
