@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from .body import DEFAULT_SHAPE, EMPTY, H_ACT, RIGID, SOFT, V_ACT, Body, as_body, is_valid, random_body
+from .body import DEFAULT_SHAPE, EMPTY, H_ACT, RIGID, SOFT, V_ACT, Body, as_body, is_valid, mutate, random_body
 from .config import Experiment, PluginChoice
 from .designer import Designer, ranking_rewards, top_k
 from .environment import Controller, Environment, Evaluation
@@ -77,6 +77,7 @@ __all__ = [
     "make_controller",
     "make_designer",
     "make_env",
+    "mutate",
     "random_body",
     "ranking_rewards",
     "registry",

@@ -15,6 +15,7 @@ from typing import Annotated, Any, Optional
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
@@ -23,7 +24,7 @@ from .config import Experiment, PluginChoice, parse_params, parse_seeds, split_t
 from .errors import ConfigError, DesignerError, GdabenchError
 from .plugins import KINDS, registry
 from .results import RunDirectory
-from .runner import GenerationReport, compare as run_compare
+from .runner import GenerationReport, compare as run_compare, default_out_dir
 from .summary import summarize
 
 app = typer.Typer(
@@ -39,7 +40,7 @@ KIND_ALIASES = {"designers": "designer", "envs": "environment", "environments": 
 
 
 def _fail(message: str, code: int) -> typer.Exit:
-    err_console.print(f"[bold red]error:[/] {message}", highlight=False, soft_wrap=True)
+    err_console.print(f"[bold red]error:[/] {escape(message)}", highlight=False, soft_wrap=True)
     return typer.Exit(code)
 
 
@@ -88,7 +89,7 @@ def list_plugins(
             table.add_column("description")
             table.add_column("package")
             for item in reg.items(k):
-                table.add_row(item.name, item.spec.description, f"{item.distribution} {item.version}".strip())
+                table.add_row(escape(item.name), escape(item.spec.description), escape(f"{item.distribution} {item.version}".strip()))
             console.print(table)
 
 
@@ -190,20 +191,20 @@ def _execute(
         task = progress.add_task("starting", total=runs * experiment.budget, completed=sum(done.values()))
 
         def on_generation(report: GenerationReport) -> None:
+            if not progress.live.is_started:  # started late so that set-up errors print alone
+                progress.start()
             done[(report.designer, report.seed)] = report.n_evals
             best = "-" if report.best != report.best else f"{report.best:.4g}"
             progress.update(
                 task,
                 completed=sum(done.values()),
-                description=f"{report.designer} seed {report.seed} gen {report.generation} best {best}",
+                description=escape(f"{report.designer} seed {report.seed} gen {report.generation} best {best}"),
             )
 
-        with progress:
-            if out is None and resume is None:
-                from .runner import default_out_dir
-
-                out = default_out_dir(experiment)
-            guard.run_dir = resume or out
+        if out is None and resume is None:
+            out = default_out_dir(experiment)
+        guard.run_dir = resume or out
+        try:
             run = run_compare(
                 experiment,
                 resume or out,
@@ -213,13 +214,15 @@ def _execute(
                 on_generation=on_generation,
                 command=["gdabench", *sys.argv[1:]],
             )
+        finally:
+            progress.stop()
         _print_summary(run)
 
 
 def _print_summary(run: RunDirectory) -> None:
     frame = run.load_evaluations()
     summary = summarize(frame, run.meta.get("env_optimum"))
-    table = Table(title=f"summary ({run.path})", title_justify="left", show_edge=False)
+    table = Table(title=escape(f"summary ({run.path})"), title_justify="left", show_edge=False)
     has_opt = summary["optimum"].notna().any() if len(summary) else False
     cols = ["designer", "env", "seeds", "best (median)", "best (IQR)"]
     cols += ["seeds at optimum", "evals to optimum (median)"] if has_opt else []
@@ -233,7 +236,7 @@ def _print_summary(run: RunDirectory) -> None:
             med = r["evals_to_optimum_median"]
             cells += [f"{r['seeds_at_optimum']}/{r['seeds']}", "not reached" if med == float("inf") else f"{med:.0f}"]
         cells.append(f"{r['wall_seconds_median']:.1f}")
-        table.add_row(*cells)
+        table.add_row(*map(escape, cells))
     console.print(table)
 
 
@@ -286,13 +289,46 @@ def run(
 
 
 @app.command()
+def evaluate(
+    body: Annotated[str, typer.Argument(help="Body in text form, rows separated by '/', e.g. 44444/44444/44444/44444/44444.")],
+    env: Env = "simple",
+    controller: Controller = None,
+    env_param: EnvParam = None,
+    controller_param: ControllerParam = None,
+    seed: Annotated[int, typer.Option(help="Run seed (the evaluation seed is derived from it and the body).")] = 0,
+) -> None:
+    """Score one body, exactly as a run with this seed would."""
+    with _Guard():
+        from . import seeding
+        from .body import Body
+        from .evaluation import OK, EvalTask, Factory, evaluate as evaluate_task
+
+        parsed = Body.from_text(body)
+        reg = registry()
+        env_choice = PluginChoice.parse(env).with_params(parse_params(env_param, "environment parameter"))
+        ctrl_choice = PluginChoice.parse(controller).with_params(parse_params(controller_param, "controller parameter")) if controller else None
+        Experiment((PluginChoice("random"),), env_choice, ctrl_choice, shape=parsed.shape, population=1, budget=1).validate(reg)
+        env_recipe = Factory.of(reg.get("environment", env_choice.name).spec.factory, {"shape": parsed.shape, **env_choice.params})
+        reason = env_recipe.build().invalid_reason(parsed)
+        if reason is not None:
+            raise ConfigError(f"body {parsed.text} is invalid for {env_choice.name!r}: {reason}")
+        ctrl_recipe = None
+        if ctrl_choice is not None:
+            ctrl_recipe = Factory.of(reg.get("controller", ctrl_choice.name).spec.factory, ctrl_choice.params)
+        outcome = evaluate_task(EvalTask(parsed, seeding.evaluation_seed(seed, parsed.hash), env_recipe, ctrl_recipe))
+        if outcome.status != OK:
+            raise _fail(f"evaluation failed: {outcome.message}", 1)
+        console.print(f"{outcome.reward:.6g}")
+
+
+@app.command()
 def report(run_dir: Annotated[Path, typer.Argument(help="A run directory written by compare or run.")]) -> None:
     """Summarise a run directory (tables from evaluations.parquet)."""
     with _Guard():
         run = RunDirectory.open(run_dir)
         status = run.meta.get("status")
         if status != "complete":
-            err_console.print(f"[yellow]note:[/] run status is {status!r}; summarising the rows written so far")
+            err_console.print(f"[yellow]note:[/] run status is {escape(repr(status))}; summarising the rows written so far")
         _print_summary(run)
 
 

@@ -24,11 +24,8 @@ class InvalidBodyError(GdabenchError, ValueError):
     """A well-formed body that breaks the validity rule was handed to something that scores bodies."""
 
 
-class UnknownPluginError(GdabenchError, KeyError):
+class UnknownPluginError(ConfigError):
     """No designer, environment or controller is registered under the requested name."""
-
-    def __str__(self) -> str:  # KeyError would quote the message
-        return str(self.args[0]) if self.args else ""
 
 
 class PluginError(GdabenchError):

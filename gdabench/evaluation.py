@@ -28,6 +28,10 @@ class Factory:
     factory: str | Callable[..., Any]
     params: tuple[tuple[str, Any], ...] = ()
 
+    @classmethod
+    def of(cls, factory: str | Callable[..., Any], params: Mapping[str, Any]) -> Factory:
+        return cls(factory, tuple(sorted(params.items())))
+
     def key(self) -> str:
         return repr((self.factory, self.params))
 

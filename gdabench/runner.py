@@ -30,7 +30,7 @@ from .errors import DesignerError, GdabenchError, RunDirectoryError
 from .evaluation import COUNTED, DUPLICATE, INVALID, OK, EvalTask, Factory, one_line
 from .executors import make_executor
 from .plugins import Registry, registry
-from .results import COLUMNS, Checkpoint, RunDirectory, TableWriter, platform_info, utc_now, versions
+from .results import COLUMNS, Checkpoint, RunDirectory, platform_info, utc_now, versions
 from .summary import summarize
 
 #: a designer that proposes nothing new for this many generations in a row is stopped
@@ -72,10 +72,6 @@ def _shape_text(shape: Sequence[int]) -> str:
     return f"{shape[0]}x{shape[1]}"
 
 
-def _recipe(spec_factory: Any, params: Mapping[str, Any]) -> Factory:
-    return Factory(spec_factory, tuple(sorted(params.items())))
-
-
 class Runner:
     """Runs every (designer, seed) of an :class:`Experiment` into one run directory."""
 
@@ -93,13 +89,13 @@ class Runner:
         self.on_generation = on_generation or (lambda report: None)
         exp = experiment
         env_spec = self.reg.get("environment", exp.env.name).spec
-        self.env_recipe = _recipe(env_spec.factory, {"shape": tuple(exp.shape), **exp.env.params})
+        self.env_recipe = Factory.of(env_spec.factory, {"shape": tuple(exp.shape), **exp.env.params})
         self.env: Environment = self.env_recipe.build()
         self.ctrl_recipe = None
         prebuilt: dict[str, Any] = {self.env_recipe.key(): self.env}
         if exp.controller is not None:
             ctrl_spec = self.reg.get("controller", exp.controller.name).spec
-            self.ctrl_recipe = _recipe(ctrl_spec.factory, exp.controller.params)
+            self.ctrl_recipe = Factory.of(ctrl_spec.factory, exp.controller.params)
             prebuilt[self.ctrl_recipe.key()] = self.ctrl_recipe.build()
         self.executor = make_executor(executor, workers, prebuilt)
         for choice in exp.designers:  # constructor errors (bad parameters) surface before any run starts
@@ -109,38 +105,35 @@ class Runner:
     def run_all(self, run: RunDirectory) -> pd.DataFrame:
         """Run every (seed, designer) pair not yet complete in ``run``; returns the full table."""
         self.run, self.run_id = run, run.meta["run_id"]
-        self.table = TableWriter(run, run.load_evaluations())
         try:
             for repetition, seed in enumerate(self.experiment.seeds):
                 for choice in self.experiment.designers:
                     self.run_trial(choice, seed, repetition)
         finally:
             self.executor.close()
-        return self.table.frame()
+        return run.load_evaluations()
 
     def run_trial(self, choice: PluginChoice, seed: int, repetition: int) -> None:
-        exp, label = self.experiment, choice.label or choice.name
-        checkpoint = self.run.load_checkpoint(label, seed)
-        if checkpoint is not None and checkpoint.complete:
+        exp, label = self.experiment, choice.label
+        if self.run.is_finished(label, seed):
             return
+        checkpoint = self.run.load_checkpoint(label, seed)
         start_gen = checkpoint.next_generation if checkpoint else 0
-        mine = lambda f: (f["designer"] == label) & (f["seed"] == seed)  # noqa: E731
-        self.table.drop(lambda f: mine(f) & (f["generation"] >= start_gen))
+        done = self.run.pending_rows(label, seed, before_generation=start_gen)
         designer = checkpoint.designer if checkpoint else build_designer(self.reg, exp, choice, seed)
-
-        done = self.table.frame()
-        done = done[mine(done)] if len(done) else done
-        counted = done[done["status"].isin(COUNTED)] if len(done) else done
-        seen: dict[str, float] = dict(zip(counted["body_hash"], counted["reward"])) if len(done) else {}
-        n_evals = len(counted)
-        best = float(done["best_so_far"].iloc[-1]) if len(done) else math.nan
-        clock0 = time.perf_counter() - (float(done["elapsed_seconds"].iloc[-1]) if len(done) else 0.0)
+        seen: dict[str, float] = {}
+        n_evals, best, clock0 = 0, math.nan, time.perf_counter()
+        if done is not None:
+            counted = done[done["status"].isin(COUNTED)]
+            seen = dict(zip(counted["body_hash"], counted["reward"]))
+            n_evals, best = len(counted), float(done["best_so_far"].iloc[-1])
+            clock0 -= float(done["elapsed_seconds"].iloc[-1])
         constant = {
             "run_id": self.run_id,
             "designer": label,
             "designer_name": choice.name,
-            "env": exp.env.label or exp.env.name,
-            "controller": (exp.controller.label or exp.controller.name) if exp.controller else "",
+            "env": exp.env.label,
+            "controller": exp.controller.label if exp.controller else "",
             "designer_params": _json(choice.params),
             "env_params": _json(exp.env.params),
             "controller_params": _json(exp.controller.params) if exp.controller else "{}",
@@ -196,7 +189,7 @@ class Runner:
                         best = row["reward"]
                 row.setdefault("eval_seconds", 0.0)
                 row.update(n_evals=n_evals, best_so_far=best, design_seconds=design_seconds, elapsed_seconds=elapsed, timestamp=stamp)
-            self.table.append(rows)
+            self.run.append_generation(label, seed, generation, rows)
             self.on_generation(GenerationReport(label, seed, generation, n_evals, exp.budget, len(tasks), best))
 
             if n_evals >= exp.budget or truncated:
@@ -215,7 +208,7 @@ class Runner:
             tell_seconds = time.perf_counter() - t0
             generation += 1
             self.run.save_checkpoint(label, seed, Checkpoint(designer, generation))
-        self.run.save_checkpoint(label, seed, Checkpoint(None, generation + 1, complete=True))
+        self.run.finish_trial(label, seed)
 
     def _ask(self, designer: Designer, label: str, seed: int) -> tuple[list[Body], list[Mapping[str, Any]]]:
         try:

@@ -16,6 +16,7 @@ from gdabench.cli import app
 from gdabench.envs import nk_optimum
 from gdabench.errors import InvalidBodyError
 from gdabench.envs.target import DEFAULT_TARGET
+from gdabench.testing import check_environment
 
 # the peaks exactly as issue 10 states them (rows top to bottom, Evolution Gym codes)
 ISSUE_P1 = [0, 4, 0, 4, 4, 1, 1, 4, 3, 3, 2, 0, 0, 0, 2, 2, 0, 0, 0, 3, 4, 4, 4, 4, 3]
@@ -290,3 +291,11 @@ def test_summary_reports_evaluations_to_the_nk_optimum(tmp_path):
     hits = frame[(frame["status"] == "ok") & (frame["reward"] >= optimum - 1e-9)]
     assert summary.loc[0, "seeds_at_optimum"] == hits["seed"].nunique() >= 1
     assert frame.loc[frame["status"] == "ok", "reward"].max() == pytest.approx(optimum)
+
+
+@pytest.mark.parametrize(
+    "name, params, shape",
+    [("two-peaks", {}, (5, 5)), ("target", {"class_credit": 0.5}, (5, 5)), ("nk", {"k": 3, "table_seed": 4}, (4, 6))],
+)
+def test_landscapes_pass_the_environment_conformance_checks(name, params, shape):
+    check_environment(registry().get("environment", name).spec.load(), params=params, shape=shape, bodies=30)
