@@ -18,7 +18,7 @@ being stored, so any K works.
 
 The optimum is the best *valid* body.  It is computed exactly by dynamic programming along the
 row-major line (:mod:`gdabench.envs.nk_optimum`) whenever that is affordable: on 5x5 bodies
-for K <= 5 (in under a second), and up to K = 8 when the best body ignoring validity happens
+for K <= 5 (0.5 s), and up to K = 8 (2 s) when the best body ignoring validity happens
 to be valid.  Otherwise the optimum is reported as unknown (None); :attr:`NKLandscape.upper_bound`
 then still gives, when affordable, the best reward of any body, valid or not.
 """
