@@ -24,6 +24,8 @@ from .config import Experiment, PluginChoice, parse_params, parse_seeds, split_t
 from .errors import ConfigError, DesignerError, GdabenchError
 from .plugins import KINDS, registry
 from .results import RunDirectory
+from .report.diversity import NEAR_COPY, SURVIVORS
+from .report.tables import summary_cells
 from .runner import GenerationReport, compare as run_compare, default_out_dir
 from .summary import summarize
 
@@ -111,6 +113,7 @@ Workers = Annotated[int, typer.Option(help="Parallel evaluations.")]
 ExecutorOpt = Annotated[Optional[str], typer.Option("--executor", help="serial or process (default: serial for 1 worker).")]
 Resume = Annotated[Optional[Path], typer.Option(help="Continue the run in this directory (other options are taken from it).")]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
+NoReport = Annotated[bool, typer.Option("--no-report", help="Only print the summary table; do not write the report (plots, HTML).")]
 
 
 def _designer_choices(designers: str, designer_params: list[str] | None) -> list[PluginChoice]:
@@ -149,6 +152,7 @@ def _execute(
     executor: str | None,
     resume: Path | None,
     quiet: bool,
+    no_report: bool = False,
 ) -> None:
     guard = _Guard(resume or out)
     with guard:
@@ -216,28 +220,39 @@ def _execute(
             )
         finally:
             progress.stop()
+    if no_report:
         _print_summary(run)
+        return
+    with _Guard():
+        try:
+            _write_report(run.path)
+        except GdabenchError as exc:
+            raise _fail(f"the run is complete in {run.path}, but its report failed: {exc} (retry with: gdabench report {run.path})", 1) from None
+
+
+def _print_table(title: str, headers: list[str], rows: list[list[str]]) -> None:
+    table = Table(title=escape(title), title_justify="left", show_edge=False)
+    for i, c in enumerate(headers):
+        table.add_column(escape(c), justify="left" if i < 2 else "right")
+    for cells in rows:
+        table.add_row(*map(escape, cells))  # labels such as ga[survivors=5] are not rich markup
+    console.print(table)
 
 
 def _print_summary(run: RunDirectory) -> None:
-    frame = run.load_evaluations()
-    summary = summarize(frame, run.meta.get("env_optimum"))
-    table = Table(title=escape(f"summary ({run.path})"), title_justify="left", show_edge=False)
-    has_opt = summary["optimum"].notna().any() if len(summary) else False
-    cols = ["designer", "env", "seeds", "best (median)", "best (IQR)"]
-    cols += ["seeds at optimum", "evals to optimum (median)"] if has_opt else []
-    cols += ["wall s (median)"]
-    for c in cols:
-        table.add_column(c, justify="left" if c in ("designer", "env") else "right")
-    for _, r in summary.iterrows():
-        env = r["env"] + (f" / {r['controller']}" if r["controller"] else "")
-        cells = [str(r["designer"]), env, str(r["seeds"]), f"{r['best_median']:.4g}", f"{r['best_q25']:.4g}-{r['best_q75']:.4g}"]
-        if has_opt:
-            med = r["evals_to_optimum_median"]
-            cells += [f"{r['seeds_at_optimum']}/{r['seeds']}", "not reached" if med == float("inf") else f"{med:.0f}"]
-        cells.append(f"{r['wall_seconds_median']:.1f}")
-        table.add_row(*map(escape, cells))
-    console.print(table)
+    summary = summarize(run.load_evaluations(), run.meta.get("env_optimum"))
+    _print_table(f"summary ({run.path})", *summary_cells(summary))
+
+
+def _write_report(run_dir: Path, out: Path | None = None, **options: Any) -> None:
+    """Write the report of a run and print its table, notes and where it went."""
+    from .report.build import write_report  # matplotlib is imported only when a report is made
+
+    report = write_report(run_dir, out, **options)
+    _print_table(f"summary ({report.run_path})", report.headers, report.rows)
+    for note in report.notes:
+        err_console.print(f"[yellow]note:[/] {escape(note)}", highlight=False, soft_wrap=True)
+    console.print(escape(f"report: {report.out / 'report.html'} (summary: {report.out / 'summary.md'})"), highlight=False, soft_wrap=True)
 
 
 @app.command()
@@ -258,6 +273,7 @@ def compare(
     executor: ExecutorOpt = None,
     resume: Resume = None,
     quiet: Quiet = False,
+    no_report: NoReport = False,
 ) -> None:
     """Run several designers side by side under the same budget and seeds."""
     if not designers and resume is None:
@@ -283,6 +299,7 @@ def run(
     executor: ExecutorOpt = None,
     resume: Resume = None,
     quiet: Quiet = False,
+    no_report: NoReport = False,
 ) -> None:
     """Run one designer."""
     _execute(designers=designer, **{k: v for k, v in locals().items() if k != "designer"})
@@ -322,14 +339,19 @@ def evaluate(
 
 
 @app.command()
-def report(run_dir: Annotated[Path, typer.Argument(help="A run directory written by compare or run.")]) -> None:
-    """Summarise a run directory (tables from evaluations.parquet)."""
+def report(
+    run_dir: Annotated[Path, typer.Argument(help="A run directory written by compare or run.")],
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Where to write the report (default: RUN_DIR/report).")] = None,
+    threshold: Annotated[
+        Optional[float], typer.Option(help="Reward whose first reach is counted in evaluations (default: the environment's optimum, if known).")
+    ] = None,
+    survivors: Annotated[int, typer.Option(help="Diversity: survivors = this many best bodies evaluated before a generation.")] = SURVIVORS,
+    near_copy: Annotated[int, typer.Option(help="Diversity: a proposal at most this many voxels from a survivor is a near-copy.")] = NEAR_COPY,
+    animations: Annotated[bool, typer.Option(help="Animate the best bodies, if the environment can render them.")] = True,
+) -> None:
+    """Write plots, tables and a self-contained HTML report of a run directory (also mid-run)."""
     with _Guard():
-        run = RunDirectory.open(run_dir)
-        status = run.meta.get("status")
-        if status != "complete":
-            err_console.print(f"[yellow]note:[/] run status is {escape(repr(status))}; summarising the rows written so far")
-        _print_summary(run)
+        _write_report(run_dir, out, threshold=threshold, survivors=survivors, near_copy=near_copy, animations=animations)
 
 
 def main() -> None:

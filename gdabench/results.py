@@ -85,6 +85,7 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
+        os.chmod(tmp, 0o644)  # mkstemp creates private files; results are meant to be shared
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -168,9 +169,13 @@ class RunDirectory:
 
     def _read(self, path: Path) -> pd.DataFrame:
         try:
-            return pd.read_parquet(path)
+            frame = pd.read_parquet(path)
         except Exception as exc:  # noqa: BLE001 - pyarrow raises several types for corrupt files
             raise RunDirectoryError(f"cannot read {path}: {type(exc).__name__}: {exc}") from None
+        missing = [c for c in ("designer", "seed", "generation", "body", "reward", "status") if c not in frame.columns]
+        if missing:
+            raise RunDirectoryError(f"{path} is not a gdabench evaluations table (no column {missing[0]!r})")
+        return frame
 
     def _finished(self) -> pd.DataFrame | None:
         return self._read(self.evaluations_path) if self.evaluations_path.exists() else None

@@ -33,7 +33,7 @@ def test_compare_writes_run_and_prints_summary(tmp_path):
     out = tmp_path / "run"
     result = invoke("compare", "--designers", "ga,random", "--env", "simple", "--seeds", "0,1", "--budget", "100", "--out", str(out), "-q")
     assert result.exit_code == 0, result.stderr
-    assert "summary" in result.stdout and "ga" in result.stdout and "seeds at optimum" in result.stdout
+    assert "summary" in result.stdout and "ga" in result.stdout and "seeds reaching 100" in result.stdout
     df = pd.read_parquet(out / "evaluations.parquet")
     assert set(df["designer"]) == {"ga", "random"} and set(df["seed"]) == {0, 1}
     assert (df.groupby(["designer", "seed"])["n_evals"].max() == 100).all()
