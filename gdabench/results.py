@@ -75,6 +75,13 @@ COLUMNS: dict[str, str] = {
 }
 
 
+#: columns without which a table cannot be merged, resumed or reported
+REQUIRED_COLUMNS = (
+    "designer", "env", "controller", "seed", "generation", "index", "body", "body_hash",
+    "reward", "status", "n_evals", "best_so_far", "elapsed_seconds",
+)  # fmt: skip
+
+
 def utc_now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
@@ -172,9 +179,9 @@ class RunDirectory:
             frame = pd.read_parquet(path)
         except Exception as exc:  # noqa: BLE001 - pyarrow raises several types for corrupt files
             raise RunDirectoryError(f"cannot read {path}: {type(exc).__name__}: {exc}") from None
-        missing = [c for c in ("designer", "seed", "generation", "body", "reward", "status") if c not in frame.columns]
+        missing = [c for c in REQUIRED_COLUMNS if c not in frame.columns]
         if missing:
-            raise RunDirectoryError(f"{path} is not a gdabench evaluations table (no column {missing[0]!r})")
+            raise RunDirectoryError(f"{path} lacks the column(s) {', '.join(missing)}: not a gdabench evaluations table")
         return frame
 
     def _finished(self) -> pd.DataFrame | None:

@@ -45,10 +45,6 @@ from .stats import CONFIDENCE, RESAMPLES, best_so_far_curve, generation_rewards,
 from .tables import summary_cells
 
 #: columns the report needs; everything else in the table is optional
-REQUIRED = (
-    "designer", "env", "controller", "seed", "generation", "index", "body", "body_hash",
-    "reward", "status", "n_evals", "elapsed_seconds",
-)  # fmt: skip
 BEST_BODIES = 8
 GENERATION_COLUMNS = 10
 REPORT_DIR = "report"
@@ -59,15 +55,9 @@ def load_run(run_dir: str | Path) -> tuple[RunDirectory, dict[str, Any], pd.Data
     run = RunDirectory.open(run_dir)
     meta = run.meta
     status = meta.get("status")
-    try:
-        frame = run.load_evaluations()  # finished runs and the generations of unfinished ones
-    except KeyError as exc:  # a table without the designer/seed keys that rows are merged by
-        raise RunDirectoryError(f"the evaluations of {run.path} lack the column {exc}: not a gdabench run's table") from None
+    frame = run.load_evaluations()  # finished runs and the generations of unfinished ones
     if frame.empty:
         raise RunDirectoryError(f"{run.path} has no evaluations yet (run status {status!r}): nothing to report")
-    missing = [c for c in REQUIRED if c not in frame.columns]
-    if missing:
-        raise RunDirectoryError(f"the evaluations of {run.path} lack the column(s) {', '.join(missing)}: not a gdabench run's table")
     notes = []
     if status != "complete":
         counted = int(frame["status"].isin(COUNTED).sum())
