@@ -88,13 +88,13 @@ def markdown(rows: pd.DataFrame) -> str:
     )
     lines = []
     for _, r in rows.iterrows():
-        known = not math.isnan(r["optimum"])
-        med = r["evals_to_optimum_median"]
+        known = not math.isnan(r["threshold"])
+        med = r["evals_to_threshold_median"]
         to_opt = "-" if not known else ("not reached" if med == math.inf else f"{med:.0f}")
-        hits = f"{r['seeds_at_optimum']}/{r['seeds']}" if known else "-"
+        hits = f"{r['seeds_reached']}/{r['seeds']}" if known else "-"
         note = "" if r["status"] == "complete" else f" ({r['status']})"
         lines.append(
-            f"| {r['env']} | {fmt(r['optimum'])} | {r['designer']}{note} | {hits} | {to_opt} | "
+            f"| {r['env']} | {fmt(r['threshold'])} | {r['designer']}{note} | {hits} | {to_opt} | "
             f"{fmt(r['best_median'])} ({fmt(r['best_min'])}-{fmt(r['best_max'])}) | {r['wall_seconds_median']:.1f} |"
         )
     return header + "\n".join(lines)
