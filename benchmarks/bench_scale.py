@@ -34,9 +34,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))  # cpu_burn, for the dr
 from gdabench import EnvironmentSpec, hookimpl  # noqa: E402
 from gdabench.body import random_body  # noqa: E402
 from gdabench.config import PluginChoice, parse_params  # noqa: E402
-from gdabench.evaluation import OK, EvalTask, Factory  # noqa: E402
+from gdabench.evaluation import OK, EvalTask  # noqa: E402
 from gdabench.executors import make_executor  # noqa: E402
 from gdabench.plugins import Registry  # noqa: E402
+from gdabench.specs import Factory  # noqa: E402
 
 
 class StandIn:
@@ -47,11 +48,11 @@ class StandIn:
 
 def recipes(reg: Registry, env: str, env_params: list[str], controller: str | None, ctrl_params: list[str], shape) -> tuple[Factory, Factory | None]:
     env_choice = PluginChoice.parse(env).with_params(parse_params(env_params))
-    env_recipe = Factory.of(reg.get("environment", env_choice.name).spec.factory, {"shape": shape, **env_choice.params})
+    env_recipe = reg.get("environment", env_choice.name).spec.recipe({"shape": shape, **env_choice.params})
     ctrl_recipe = None
     if controller:
         ctrl_choice = PluginChoice.parse(controller).with_params(parse_params(ctrl_params))
-        ctrl_recipe = Factory.of(reg.get("controller", ctrl_choice.name).spec.factory, ctrl_choice.params)
+        ctrl_recipe = reg.get("controller", ctrl_choice.name).spec.recipe(ctrl_choice.params)
     return env_recipe, ctrl_recipe
 
 

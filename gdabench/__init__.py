@@ -32,17 +32,17 @@ __version__ = "0.1.0"
 
 def make_designer(name: str, *, seed: int = 0, **kwargs: Any) -> Designer:
     """Build a registered designer outside the harness (seeded exactly as in a run)."""
-    return registry().get("designer", name).spec.load()(seed=designer_seed(seed), **kwargs)
+    return registry().get("designer", name).spec.create(seed=designer_seed(seed), **kwargs)
 
 
 def make_env(name: str, **kwargs: Any) -> Environment:
     """Build a registered environment, e.g. ``make_env("simple", shape=(5, 5))``."""
-    return registry().get("environment", name).spec.load()(**kwargs)
+    return registry().get("environment", name).spec.create(**kwargs)
 
 
 def make_controller(name: str, **kwargs: Any) -> Controller:
     """Build a registered controller."""
-    return registry().get("controller", name).spec.load()(**kwargs)
+    return registry().get("controller", name).spec.create(**kwargs)
 
 
 __all__ = [

@@ -25,8 +25,9 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from .errors import ConfigError
-from .evaluation import OK, EvalOutcome, EvalTask, Factory
+from .evaluation import OK, EvalOutcome, EvalTask
 from .results import atomic_write_bytes, utc_now
+from .specs import Factory
 
 FORMAT = "gdabench-cache/1"
 

@@ -342,20 +342,20 @@ def evaluate(
     with _Guard():
         from . import seeding
         from .body import Body
-        from .evaluation import OK, EvalTask, Factory, evaluate as evaluate_task
+        from .evaluation import OK, EvalTask, evaluate as evaluate_task
 
         parsed = Body.from_text(body)
         reg = registry()
         env_choice = PluginChoice.parse(env).with_params(parse_params(env_param, "environment parameter"))
         ctrl_choice = PluginChoice.parse(controller).with_params(parse_params(controller_param, "controller parameter")) if controller else None
         Experiment((PluginChoice("random"),), env_choice, ctrl_choice, shape=parsed.shape, population=1, budget=1).validate(reg)
-        env_recipe = Factory.of(reg.get("environment", env_choice.name).spec.factory, {"shape": parsed.shape, **env_choice.params})
+        env_recipe = reg.get("environment", env_choice.name).spec.recipe({"shape": parsed.shape, **env_choice.params})
         reason = env_recipe.build().invalid_reason(parsed)
         if reason is not None:
             raise ConfigError(f"body {parsed.text} is invalid for {env_choice.name!r}: {reason}")
         ctrl_recipe = None
         if ctrl_choice is not None:
-            ctrl_recipe = Factory.of(reg.get("controller", ctrl_choice.name).spec.factory, ctrl_choice.params)
+            ctrl_recipe = reg.get("controller", ctrl_choice.name).spec.recipe(ctrl_choice.params)
         outcome = evaluate_task(EvalTask(parsed, seeding.evaluation_seed(seed, parsed.hash), env_recipe, ctrl_recipe))
         if outcome.status != OK:
             raise _fail(f"evaluation failed: {outcome.message}", 1)

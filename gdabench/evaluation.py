@@ -17,31 +17,11 @@ from typing import Any, Callable, Mapping, Sequence
 
 from .body import Body
 from .environment import Environment, Evaluation
+from .specs import Factory
 
 OK, INVALID, DUPLICATE, ERROR, TIMEOUT = "ok", "invalid", "duplicate", "error", "timeout"
 #: statuses that used an evaluation (and so count against the budget)
 COUNTED = (OK, ERROR, TIMEOUT)
-
-
-@dataclass(frozen=True)
-class Factory:
-    """A picklable recipe for an environment or controller: factory plus keyword arguments."""
-
-    factory: str | Callable[..., Any]
-    params: tuple[tuple[str, Any], ...] = ()
-
-    @classmethod
-    def of(cls, factory: str | Callable[..., Any], params: Mapping[str, Any]) -> Factory:
-        return cls(factory, tuple(sorted(params.items())))
-
-    def key(self) -> str:
-        return repr((self.factory, self.params))
-
-    def build(self) -> Any:
-        from .specs import Spec  # local: keep this module import-light for workers
-
-        fn = Spec("factory", self.factory, "").load()
-        return fn(**dict(self.params))
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,8 @@ import os
 from typing import Any, Mapping, Sequence
 
 from .errors import ConfigError
-from .evaluation import EvalOutcome, EvalTask, Factory, evaluate
+from .evaluation import EvalOutcome, EvalTask, evaluate
+from .specs import Factory
 
 EXECUTORS = ("serial", "process", "ray")
 

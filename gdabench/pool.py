@@ -30,7 +30,8 @@ from multiprocessing.connection import Connection, wait
 from typing import Any, Sequence
 
 from .errors import GdabenchError
-from .evaluation import ERROR, TIMEOUT, EvalOutcome, EvalTask, Factory, evaluate, one_line, prepare
+from .evaluation import ERROR, TIMEOUT, EvalOutcome, EvalTask, evaluate, one_line, prepare
+from .specs import Factory
 
 #: seconds the pool waits for its first worker to import gdabench and build the environment
 #: (workers that start later, e.g. queued on a busy Ray cluster, may take as long as they need)

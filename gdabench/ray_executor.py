@@ -19,9 +19,10 @@ from dataclasses import dataclass
 from typing import Any, Sequence
 
 from .errors import ConfigError
-from .evaluation import ERROR, EvalOutcome, EvalTask, Factory, evaluate, one_line, prepare
+from .evaluation import ERROR, EvalOutcome, EvalTask, evaluate, one_line, prepare
 from .executors import Executor
 from .pool import DIED, READY, RESULT, Backend, Slot, WorkerGone, WorkerPool
+from .specs import Factory
 
 
 def import_ray() -> Any:

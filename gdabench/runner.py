@@ -29,7 +29,7 @@ from .designer import Designer
 from .environment import Environment
 from .cache import EvaluationCache, recipe_identity
 from .errors import ConfigError, DesignerError, GdabenchError, RunDirectoryError
-from .evaluation import COUNTED, DUPLICATE, INVALID, OK, EvalOutcome, EvalTask, Factory, one_line
+from .evaluation import COUNTED, DUPLICATE, INVALID, OK, EvalOutcome, EvalTask, one_line
 from .executors import make_executor, resolve_workers
 from .plugins import Registry, registry
 from .results import COLUMNS, Checkpoint, RunDirectory, platform_info, utc_now, versions
@@ -54,7 +54,7 @@ class GenerationReport:
 
 def build_designer(reg: Registry, experiment: Experiment, choice: PluginChoice, seed: int) -> Designer:
     """Instantiate a designer for one seed of ``experiment``."""
-    designer = reg.get("designer", choice.name).spec.load()(
+    designer = reg.get("designer", choice.name).spec.create(
         shape=tuple(experiment.shape),
         population=experiment.population,
         budget=experiment.budget,
@@ -94,13 +94,13 @@ class Runner:
         self.on_generation = on_generation or (lambda report: None)
         exp = experiment
         env_spec = self.reg.get("environment", exp.env.name).spec
-        self.env_recipe = Factory.of(env_spec.factory, {"shape": tuple(exp.shape), **exp.env.params})
+        self.env_recipe = env_spec.recipe({"shape": tuple(exp.shape), **exp.env.params})
         self.env: Environment = self.env_recipe.build()
         self.ctrl_recipe = None
         prebuilt: dict[str, Any] = {self.env_recipe.key(): self.env}
         if exp.controller is not None:
             ctrl_spec = self.reg.get("controller", exp.controller.name).spec
-            self.ctrl_recipe = Factory.of(ctrl_spec.factory, exp.controller.params)
+            self.ctrl_recipe = ctrl_spec.recipe(exp.controller.params)
             prebuilt[self.ctrl_recipe.key()] = self.ctrl_recipe.build()
         for choice in exp.designers:  # constructor errors (bad parameters) surface before any run starts
             build_designer(self.reg, exp, choice, exp.seeds[0])
@@ -161,16 +161,16 @@ class Runner:
             "designer_name": choice.name,
             "env": exp.env.label,
             "controller": exp.controller.label if exp.controller else "",
-            "designer_params": _json(choice.params),
-            "env_params": _json(exp.env.params),
-            "controller_params": _json(exp.controller.params) if exp.controller else "{}",
+            "designer_params": _json({**self.reg.get("designer", choice.name).spec.defaults, **choice.params}),
+            "env_params": _json({k: v for k, v in self.env_recipe.params if k != "shape"}),
+            "controller_params": _json(dict(self.ctrl_recipe.params)) if self.ctrl_recipe else "{}",
             "shape": _shape_text(exp.shape),
             "population": exp.population,
             "budget": exp.budget,
             "seed": seed,
             "repetition": repetition,
         }
-        workdir_root = self.run.path / "artifacts" / f"{self.run.checkpoint_path(label, seed).stem}"
+        workdir_root = self.run.path / "artifacts" / self.run.trial_name(label, seed)
         generation, stale, tell_seconds = start_gen, 0, 0.0
         while n_evals < exp.budget:
             t0 = time.perf_counter()

@@ -26,10 +26,11 @@ from gdabench import Experiment, PluginChoice, compare
 from gdabench.body import Body
 from gdabench.cache import EvaluationCache
 from gdabench.errors import ConfigError
-from gdabench.evaluation import OK, EvalOutcome, EvalTask, Factory
+from gdabench.evaluation import OK, EvalOutcome, EvalTask
 from gdabench.executors import make_executor
 from gdabench.plugins import Registry
 from gdabench.results import RunDirectory
+from gdabench.specs import Factory
 
 FIXTURE = Path(__file__).parent / "fixtures" / "faulty_plugin"
 #: columns that legitimately differ between two runs of the same command

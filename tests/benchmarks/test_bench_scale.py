@@ -14,8 +14,9 @@ from pathlib import Path
 import numpy as np
 
 from gdabench.body import random_body
-from gdabench.evaluation import EvalTask, Factory
+from gdabench.evaluation import EvalTask
 from gdabench.executors import make_executor
+from gdabench.specs import Factory
 
 SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_scale.py"
 
