@@ -22,12 +22,23 @@ from .errors import (
 )
 from .hookspecs import hookimpl
 from .plugins import registry
-from .results import RunDirectory
-from .runner import compare
 from .seeding import designer_seed
 from .specs import ControllerSpec, DesignerSpec, EnvironmentSpec
 
 __version__ = "0.1.0"
+
+
+def __getattr__(name: str) -> Any:
+    """Import the pandas-based parts on first use, so worker processes start quickly."""
+    if name == "compare":
+        from .runner import compare
+
+        return compare
+    if name == "RunDirectory":
+        from .results import RunDirectory
+
+        return RunDirectory
+    raise AttributeError(f"module 'gdabench' has no attribute {name!r}")
 
 
 def make_designer(name: str, *, seed: int = 0, **kwargs: Any) -> Designer:
