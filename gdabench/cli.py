@@ -109,9 +109,18 @@ DesignerParam = Annotated[
 ]
 EnvParam = Annotated[Optional[list[str]], typer.Option("--env-param", "-E", help="Environment parameter KEY=VALUE.")]
 ControllerParam = Annotated[Optional[list[str]], typer.Option("--controller-param", "-C", help="Controller parameter KEY=VALUE.")]
-Workers = Annotated[int, typer.Option(help="Parallel evaluations.")]
-ExecutorOpt = Annotated[Optional[str], typer.Option("--executor", help="serial or process (default: serial for 1 worker).")]
-Resume = Annotated[Optional[Path], typer.Option(help="Continue the run in this directory (other options are taken from it).")]
+Workers = Annotated[
+    Optional[int], typer.Option(help="Evaluations at once (default: 1 for serial, every CPU for process, every cluster CPU for ray).")
+]
+ExecutorOpt = Annotated[
+    Optional[str], typer.Option("--executor", help="serial, process or ray (default: serial for 1 worker, process for more).")
+]
+RayAddress = Annotated[Optional[str], typer.Option(help="Ray cluster to join: auto (the one this machine is part of) or HOST:PORT (default: start a local one).")]
+Timeout = Annotated[Optional[float], typer.Option(help="Seconds an evaluation may take before it is stopped and recorded as 'timeout'.")]
+Cache = Annotated[Optional[Path], typer.Option(help="Directory of an evaluation cache shared across runs (deterministic environments).")]
+Resume = Annotated[
+    Optional[Path], typer.Option(help="Continue the run in this directory (its experiment is taken from it; execution options may change).")
+]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
 NoReport = Annotated[bool, typer.Option("--no-report", help="Only print the summary table; do not write the report (plots, HTML).")]
 
@@ -148,8 +157,11 @@ def _execute(
     designer_param: list[str] | None,
     env_param: list[str] | None,
     controller_param: list[str] | None,
-    workers: int,
+    workers: int | None,
     executor: str | None,
+    ray_address: str | None,
+    timeout: float | None,
+    cache: Path | None,
     resume: Path | None,
     quiet: bool,
     no_report: bool = False,
@@ -215,11 +227,17 @@ def _execute(
                 resume=resume is not None,
                 workers=workers,
                 executor=executor,
+                timeout=timeout,
+                ray_address=ray_address,
+                cache=cache,
                 on_generation=on_generation,
                 command=["gdabench", *sys.argv[1:]],
             )
         finally:
             progress.stop()
+        execution = (run.meta.get("resumed") or [None])[-1] if resume is not None else run.meta.get("execution")
+        if cache is not None and isinstance(execution, dict) and execution.get("cache") is None:
+            err_console.print(f"[yellow]note:[/] environment {escape(repr(experiment.env.name))} is not deterministic; the evaluation cache was not used")
     if no_report:
         _print_summary(run)
         return
@@ -269,8 +287,11 @@ def compare(
     designer_param: DesignerParam = None,
     env_param: EnvParam = None,
     controller_param: ControllerParam = None,
-    workers: Workers = 1,
+    workers: Workers = None,
     executor: ExecutorOpt = None,
+    ray_address: RayAddress = None,
+    timeout: Timeout = None,
+    cache: Cache = None,
     resume: Resume = None,
     quiet: Quiet = False,
     no_report: NoReport = False,
@@ -295,8 +316,11 @@ def run(
     designer_param: DesignerParam = None,
     env_param: EnvParam = None,
     controller_param: ControllerParam = None,
-    workers: Workers = 1,
+    workers: Workers = None,
     executor: ExecutorOpt = None,
+    ray_address: RayAddress = None,
+    timeout: Timeout = None,
+    cache: Cache = None,
     resume: Resume = None,
     quiet: Quiet = False,
     no_report: NoReport = False,
@@ -318,20 +342,20 @@ def evaluate(
     with _Guard():
         from . import seeding
         from .body import Body
-        from .evaluation import OK, EvalTask, Factory, evaluate as evaluate_task
+        from .evaluation import OK, EvalTask, evaluate as evaluate_task
 
         parsed = Body.from_text(body)
         reg = registry()
         env_choice = PluginChoice.parse(env).with_params(parse_params(env_param, "environment parameter"))
         ctrl_choice = PluginChoice.parse(controller).with_params(parse_params(controller_param, "controller parameter")) if controller else None
         Experiment((PluginChoice("random"),), env_choice, ctrl_choice, shape=parsed.shape, population=1, budget=1).validate(reg)
-        env_recipe = Factory.of(reg.get("environment", env_choice.name).spec.factory, {"shape": parsed.shape, **env_choice.params})
+        env_recipe = reg.get("environment", env_choice.name).spec.recipe({"shape": parsed.shape, **env_choice.params})
         reason = env_recipe.build().invalid_reason(parsed)
         if reason is not None:
             raise ConfigError(f"body {parsed.text} is invalid for {env_choice.name!r}: {reason}")
         ctrl_recipe = None
         if ctrl_choice is not None:
-            ctrl_recipe = Factory.of(reg.get("controller", ctrl_choice.name).spec.factory, ctrl_choice.params)
+            ctrl_recipe = reg.get("controller", ctrl_choice.name).spec.recipe(ctrl_choice.params)
         outcome = evaluate_task(EvalTask(parsed, seeding.evaluation_seed(seed, parsed.hash), env_recipe, ctrl_recipe))
         if outcome.status != OK:
             raise _fail(f"evaluation failed: {outcome.message}", 1)

@@ -160,7 +160,7 @@ def check_params(kind: Kind, spec: Spec, params: Mapping[str, Any], reserved: Se
     accepted = accepted_params(spec.load())
     if accepted is None:
         return
-    unknown = sorted(set(params) - accepted)
+    unknown = sorted(set({**spec.defaults, **params}) - accepted)
     if unknown:
         choices = ", ".join(sorted(accepted - set(reserved))) or "(none)"
         raise ConfigError(f"{kind} {spec.name!r} has no parameter {unknown[0]!r}; its parameters: {choices}")

@@ -20,6 +20,10 @@ class MalformedBodyError(GdabenchError, ValueError):
     """A body (array or text) is not a voxel grid of codes 0-4."""
 
 
+class InvalidBodyError(GdabenchError, ValueError):
+    """A well-formed body that breaks the validity rule was handed to something that scores bodies."""
+
+
 class UnknownPluginError(ConfigError):
     """No designer, environment or controller is registered under the requested name."""
 

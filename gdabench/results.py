@@ -66,6 +66,7 @@ COLUMNS: dict[str, str] = {
     "reward": "reward (NaN for invalid bodies and failed evaluations)",
     "status": "ok | invalid | duplicate | error | timeout",
     "message": "why a body was invalid or its evaluation failed",
+    "cached": "reward taken from the evaluation cache (--cache) instead of computed in this run",
     "n_evals": "evaluations used so far in this run, this row included",
     "best_so_far": "best reward so far in this run",
     "eval_seconds": "time spent evaluating this body",

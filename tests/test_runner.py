@@ -60,7 +60,10 @@ class Flaky(Environment):
 class FakePlugin:
     @hookimpl
     def gdabench_designers(self):
-        return [DesignerSpec("scripted", Scripted, "test designer")]
+        return [
+            DesignerSpec("scripted", Scripted, "test designer"),
+            DesignerSpec("scripted-ab", Scripted, "a variant: defaults fill in parameters", defaults={"script": [[A, B]]}),
+        ]
 
     @hookimpl
     def gdabench_environments(self):
@@ -101,6 +104,16 @@ def test_invalid_and_duplicates_are_recorded_not_evaluated(tmp_path, reg):
     assert rewards[0] == 6 and math.isnan(rewards[1]) and rewards[2:] == [6, 8]
     assert len(Scripted.told) == 2  # the last generation exhausts the budget and is not told
     assert run.meta["status"] == "complete"
+
+
+def test_spec_defaults_define_variants_and_are_recorded(tmp_path, reg):
+    exp = Experiment(designers=(PluginChoice("scripted-ab"),), env=PluginChoice("flaky"), shape=(2, 2), population=2, budget=2)
+    df = compare(exp, tmp_path / "run", reg=reg).load_evaluations()
+    assert list(df["body"]) == [A, B]
+    assert json.loads(df["designer_params"].iloc[0]) == {"script": [[A, B]]}
+    bad = Experiment(designers=(PluginChoice("scripted-ab", {"nope": 1}),), env=PluginChoice("flaky"), shape=(2, 2), population=2, budget=2)
+    with pytest.raises(ConfigError, match="has no parameter 'nope'"):
+        compare(bad, tmp_path / "bad", reg=reg)
 
 
 def test_budget_truncates_last_generation(tmp_path, reg):

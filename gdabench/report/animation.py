@@ -30,10 +30,10 @@ MAX_WIDTH = 400
 
 def build_scorers(experiment: Experiment, reg: Registry) -> tuple[Environment, Controller | None]:
     """The run's environment and controller, built as the runner built them."""
-    env = reg.get("environment", experiment.env.name).spec.load()(shape=tuple(experiment.shape), **experiment.env.params)
+    env = reg.get("environment", experiment.env.name).spec.create(shape=tuple(experiment.shape), **experiment.env.params)
     controller = None
     if experiment.controller is not None:
-        controller = reg.get("controller", experiment.controller.name).spec.load()(**experiment.controller.params)
+        controller = reg.get("controller", experiment.controller.name).spec.create(**experiment.controller.params)
     return env, controller
 
 
