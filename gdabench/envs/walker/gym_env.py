@@ -81,6 +81,7 @@ class WalkerEnv(gymnasium.Env):
         self.sim = VoxelSim(np.asarray(self.body.voxels), self.physics, origin=origin, terrain=self.terrain)
         self._com_x = float(self.sim.positions[:, 0].mean())
         self._obs = self._observe()
+        self._shown = self.sim.positions  # what render() draws: the last trustworthy state
         self._untouched = True  # reset() can keep a simulation that has not been stepped
 
     def _observe(self) -> np.ndarray:
@@ -109,6 +110,7 @@ class WalkerEnv(gymnasium.Env):
         com_x = float(self.sim.positions[:, 0].mean())
         reward, self._com_x = com_x - self._com_x, com_x
         self._obs = self._observe()
+        self._shown = self.sim.positions
         terminated = com_x > self.goal_x
         if terminated:
             reward += GOAL_BONUS
@@ -117,4 +119,4 @@ class WalkerEnv(gymnasium.Env):
     def render(self) -> np.ndarray | None:
         if self.render_mode != "rgb_array":
             return None
-        return self.renderer.draw(self.sim.positions)
+        return self.renderer.draw(self._shown)
