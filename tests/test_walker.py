@@ -168,12 +168,14 @@ def test_goal_gives_bonus_and_ends_the_episode():
 
 
 def test_unstable_simulation_ends_with_minus_three_and_a_finite_observation():
-    env = make(WALKER_BODY, physics=WalkerPhysics(max_speed=1e-3))  # any motion counts as a blow-up
+    env = make(WALKER_BODY, physics=WalkerPhysics(max_speed=1e-3), render_mode="rgb_array")  # any motion is a blow-up
     obs0, _ = env.reset(seed=0)
+    frame0 = env.render()
     obs, reward, terminated, truncated, info = env.step(np.full(env.action_space.shape, 1.6))
     assert reward == -3.0 and terminated and not truncated
     assert "faster" in info["unstable"]
-    np.testing.assert_array_equal(obs, obs0)  # the last trustworthy observation
+    np.testing.assert_array_equal(obs, obs0)  # the last trustworthy observation ...
+    np.testing.assert_array_equal(env.render(), frame0)  # ... and the last trustworthy picture
 
 
 def test_episodes_are_truncated_after_500_steps():
