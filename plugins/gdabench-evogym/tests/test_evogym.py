@@ -48,11 +48,12 @@ def test_actuator_voxels_follow_action_order():
     assert [r * 5 + c for r, c, _ in act] == sorted(r * 5 + c for r, c, _ in act)
 
 
-def test_open_loop_scores_walker_deterministically():
-    controller = gdabench.make_controller("open-loop")
-    check_environment(EvogymTask, controller=controller, bodies=3)
-    reward = EvogymTask().evaluate(WALKER_BODY, seed=0, controller=controller).reward
-    assert math.isfinite(reward) and reward > 0.5  # the hand-made walker moves forward
+def test_open_loop_drives_the_actuators_deterministically():
+    check_environment(EvogymTask, controller=gdabench.make_controller("open-loop"), bodies=3)
+    body = Body.from_text("00000/33333/33333/30003/30003")
+    moving = EvogymTask().evaluate(body, seed=0, controller=gdabench.make_controller("open-loop")).reward
+    still = EvogymTask().evaluate(body, seed=0, controller=gdabench.make_controller("open-loop", amplitude=0.0, center=1.0)).reward
+    assert abs(still) < 0.2 < abs(moving)  # the muscles, found through actuator_voxels, move the body
 
 
 def test_compare_end_to_end(tmp_path):
@@ -63,3 +64,13 @@ def test_compare_end_to_end(tmp_path):
     assert result.returncode == 0, result.stderr
     meta = json.loads((out / "run.json").read_text())
     assert meta["status"] == "complete" and meta["versions"]["plugins"]["gdabench-evogym"] == "0.1.0"
+
+
+def test_ppo_trains_on_evolution_gym(tmp_path):
+    """PPO (TorchRL) drives Evolution Gym's own Gymnasium environment; its saved policy replays."""
+    ppo = gdabench.make_controller("ppo", timesteps=256, eval_interval=128)
+    body = Body.from_text("00000/33333/33333/30003/30003")
+    first = EvogymTask().evaluate(body, seed=1, controller=ppo, workdir=tmp_path / "policy")
+    assert math.isfinite(first.reward) and (tmp_path / "policy").is_dir()
+    again = EvogymTask().evaluate(body, seed=1, controller=ppo, workdir=tmp_path / "policy")
+    assert again.reward == first.reward and again.info.get("replayed") == 1
