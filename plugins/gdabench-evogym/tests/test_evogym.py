@@ -49,17 +49,17 @@ def test_actuator_voxels_follow_action_order():
 
 
 def test_open_loop_drives_the_actuators_deterministically():
-    check_environment(EvogymTask, controller=gdabench.make_controller("open-loop"), bodies=3)
+    check_environment(EvogymTask, controller=gdabench.make_controller("open-loop", trials=1), bodies=3)
     body = Body.from_text("00000/33333/33333/30003/30003")
-    moving = EvogymTask().evaluate(body, seed=0, controller=gdabench.make_controller("open-loop")).reward
-    still = EvogymTask().evaluate(body, seed=0, controller=gdabench.make_controller("open-loop", amplitude=0.0, center=1.0)).reward
+    moving = EvogymTask().evaluate(body, seed=0, controller=gdabench.make_controller("open-loop", trials=1)).reward
+    still = EvogymTask().evaluate(body, seed=0, controller=gdabench.make_controller("open-loop", trials=1, amplitude=0.0, center=1.0)).reward
     assert abs(still) < 0.2 < abs(moving)  # the muscles, found through actuator_voxels, move the body
 
 
 def test_compare_end_to_end(tmp_path):
     out = tmp_path / "run"
     cmd = [sys.executable, "-m", "gdabench", "compare", "--designers", "ga,random", "--env", "evogym/Walker-v0",
-           "--controller", "open-loop", "--budget", "30", "--seeds", "0", "--out", str(out), "-q", "--no-report"]  # fmt: skip
+           "--controller", "open-loop", "-C", "trials=1", "--budget", "30", "--seeds", "0", "--out", str(out), "-q", "--no-report"]  # fmt: skip
     result = subprocess.run(cmd, capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
     meta = json.loads((out / "run.json").read_text())
