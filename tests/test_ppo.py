@@ -15,6 +15,7 @@ import gymnasium
 import numpy as np
 import pytest
 import torch
+from torch._dynamo.utils import counters
 from typer.testing import CliRunner
 
 from gdabench.body import as_body
@@ -24,7 +25,7 @@ from gdabench.controllers.ppo.evaluation import episode_score
 from gdabench.controllers.ppo.networks import ActorCritic
 from gdabench.controllers.ppo.policy_file import META_FILE, WEIGHTS_FILE
 from gdabench.controllers.ppo.train import train
-from gdabench.controllers.ppo.update import MinibatchUpdate, ppo_loss
+from gdabench.controllers.ppo.update import LossSettings, MinibatchUpdate
 from gdabench.envs.walker.env import Walker, make_walker
 from gdabench.envs.walker.sim import WalkerPhysics
 from gdabench.errors import ConfigError
@@ -127,23 +128,28 @@ def test_episode_end_conventions():
 
 
 @pytest.mark.slow  # compiling takes 10-60 s on a loaded 2-core machine
-def test_compiled_step_matches_the_eager_step():
-    def one_step(compiled: bool) -> dict[str, torch.Tensor]:
+def test_compiled_step_matches_the_eager_step_and_is_reused_across_bodies():
+    settings = LossSettings(clip_range=0.1, vf_coef=0.5, ent_coef=0.01, learning_rate=1e-2, max_grad_norm=0.5)
+
+    def steps(n_obs: int, n_act: int, compiled: bool) -> dict[str, torch.Tensor]:
         torch.manual_seed(0)
-        nets = ActorCritic(5, 2)
-        loss = ppo_loss(nets, clip_range=0.1, vf_coef=0.5, ent_coef=0.01)
-        update = MinibatchUpdate(nets, loss, learning_rate=1e-2, max_grad_norm=0.5, compiled=compiled)
+        nets = ActorCritic(n_obs, n_act)
+        update = MinibatchUpdate(nets, settings, compiled=compiled)
         g = torch.Generator().manual_seed(1)
-        batch = [torch.randn(4, 5, generator=g), torch.randn(4, 2, generator=g), torch.randn(4, generator=g), torch.randn(4, 1, generator=g), torch.randn(4, 1, generator=g)]
         for _ in range(3):
+            batch = [torch.randn(4, n_obs, generator=g), torch.randn(4, n_act, generator=g), torch.randn(4, generator=g), torch.randn(4, 1, generator=g), torch.randn(4, 1, generator=g)]
             update(*batch)
-        update.release()
         return {k: v.detach().clone() for k, v in nets.state_dict().items()}
 
-    eager, compiled = one_step(False), one_step(True)
-    assert not torch.equal(eager["policy.log_std"], torch.zeros(2))  # the steps did change the parameters
-    for key in eager:
-        torch.testing.assert_close(compiled[key], eager[key], rtol=1e-4, atol=1e-6)
+    graphs = []
+    for n_obs, n_act in [(5, 2), (5, 2), (7, 3), (6, 4)]:  # a second body, then other layouts
+        eager, compiled = steps(n_obs, n_act, False), steps(n_obs, n_act, True)
+        graphs.append(counters["stats"]["unique_graphs"])
+        assert not torch.equal(eager["policy.log_std"], torch.zeros(n_act))  # the steps did change the parameters
+        for key in eager:
+            torch.testing.assert_close(compiled[key], eager[key], rtol=1e-4, atol=1e-6)
+    # traced once for the first layout, once more (sizes dynamic) for the second, never again
+    assert graphs[1] == graphs[0] and graphs[3] == graphs[2] == graphs[0] + 1
 
 
 @pytest.mark.parametrize(

@@ -57,7 +57,7 @@ class BodyEnv(EnvBase):
         self._seed: int | None = None
 
     def _observation(self, obs: np.ndarray) -> torch.Tensor:
-        return torch.as_tensor(np.asarray(obs, dtype=np.float32))
+        return torch.tensor(obs, dtype=torch.float32)
 
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs: Any) -> TensorDictBase:
         obs, _ = self.gym_env.reset(seed=self._seed)
@@ -66,7 +66,7 @@ class BodyEnv(EnvBase):
         return TensorDict({"observation": self._observation(obs), "done": no, "terminated": no.clone(), "truncated": no.clone()})
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
-        action = clip_action(self.gym_env, tensordict["action"].detach().cpu().numpy())
+        action = clip_action(self.gym_env, tensordict.get("action").numpy(force=True))
         obs, reward, terminated, truncated, info = self.gym_env.step(action)
         if UNSTABLE_INFO_KEY in info:
             self.unstable_episodes += 1
@@ -78,8 +78,23 @@ class BodyEnv(EnvBase):
                 "done": torch.tensor([terminated or truncated]),
                 "terminated": torch.tensor([terminated]),
                 "truncated": torch.tensor([truncated]),
-            }
+            },
+            batch_size=(),
         )
+
+    def step_and_maybe_reset(self, tensordict: TensorDictBase) -> tuple[TensorDictBase, TensorDictBase]:
+        """What :meth:`EnvBase.step_and_maybe_reset` returns, for this env's fixed keys only.
+
+        The collector calls this once per environment step; the generic version spends more
+        time on key bookkeeping than the simulator spends on physics (tests check both agree).
+        Returns ``tensordict`` with the step's result under ``"next"``, and the input of the
+        next step: that result without the reward, or the reset environment's first
+        observation when the episode ended."""
+        result = self._step(tensordict)
+        tensordict.set("next", result)
+        if result.get("done").item():
+            return tensordict, self.reset()
+        return tensordict, result.exclude("reward")
 
     def _set_seed(self, seed: int | None) -> None:
         self._seed = seed

@@ -14,8 +14,10 @@ import math
 from typing import Sequence
 
 import torch
-from tensordict.nn import TensorDictModule
+from tensordict import TensorDictBase
+from tensordict.nn import TensorDictModule, TensorDictModuleBase
 from torch import nn
+from torch.nn import functional as F
 from torchrl.modules import ProbabilisticActor, ValueOperator
 from torchrl.modules.distributions import IndependentNormal
 
@@ -54,19 +56,36 @@ class GaussianHead(nn.Module):
         return loc, self.log_std.exp().expand_as(loc)
 
 
-class _GaussianSampler(nn.Module):
-    """Draws an action from the head's Gaussian (torch's global RNG) and its log-probability."""
+class RolloutSampler(TensorDictModuleBase):
+    """Draws an action from the head's Gaussian (torch's global RNG) and writes it with its
+    log-probability: the stochastic policy the collector plays, once per environment step.
+
+    It computes what :meth:`ActorCritic.actor` samples, but calls the layers' weights directly:
+    module and distribution objects would cost more than the arithmetic on these tiny nets."""
+
+    in_keys = [OBSERVATION]
+    out_keys = [ACTION, LOG_PROB]
 
     def __init__(self, head: GaussianHead):
         super().__init__()
         self.head = head
+        linears = [m for m in head.mean if isinstance(m, nn.Linear)]
+        # the parameters themselves: updates happen in place, so these stay current
+        self._layers = [(m.weight, m.bias) for m in linears]
 
-    def forward(self, observation: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        loc = self.head.mean(observation)
-        noise = torch.randn_like(loc)
+    @torch.no_grad()
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        x = tensordict.get(OBSERVATION)
+        last = len(self._layers) - 1
+        for i, (weight, bias) in enumerate(self._layers):
+            x = F.linear(x, weight, bias)
+            if i < last:
+                x = torch.tanh(x)
+        noise = torch.randn_like(x)
         log_std = self.head.log_std
-        log_prob = -(0.5 * noise.square() + log_std + HALF_LOG_2PI).sum(-1)
-        return loc + log_std.exp() * noise, log_prob
+        tensordict.set(ACTION, torch.addcmul(x, log_std.exp(), noise))
+        tensordict.set(LOG_PROB, -(0.5 * noise.square() + log_std + HALF_LOG_2PI).sum(-1))
+        return tensordict
 
 
 class ActorCritic(nn.Module):
@@ -90,10 +109,9 @@ class ActorCritic(nn.Module):
             return_log_prob=True,
         )
 
-    def sampler(self) -> TensorDictModule:
-        """The same stochastic policy for collecting rollouts, without building distribution
-        objects: writes ``action`` and ``action_log_prob`` as :meth:`actor` would."""
-        return TensorDictModule(_GaussianSampler(self.policy), in_keys=[OBSERVATION], out_keys=[ACTION, LOG_PROB])
+    def sampler(self) -> RolloutSampler:
+        """The same stochastic policy for collecting rollouts (see :class:`RolloutSampler`)."""
+        return RolloutSampler(self.policy)
 
     def critic(self) -> ValueOperator:
         """The value function as a TorchRL module: writes ``state_value``."""

@@ -39,7 +39,7 @@ from .config import PPOConfig
 from .envs import TrainingEnvs, box_dims
 from .evaluation import evaluate_policy
 from .networks import ActorCritic
-from .update import BATCH_KEYS, MinibatchUpdate, ppo_loss
+from .update import BATCH_KEYS, LossSettings, MinibatchUpdate
 
 # TorchRL logs every storage it initialises at INFO level: once per rollout buffer, per body
 logging.getLogger("torchrl").setLevel(logging.WARNING)
@@ -127,6 +127,17 @@ def evaluation_generator(config: PPOConfig, seed: int, index: int, device: torch
     return torch.Generator(device=device).manual_seed(seed * 1_000_003 + index)
 
 
+def loss_settings(config: PPOConfig) -> LossSettings:
+    return LossSettings(
+        clip_range=config.clip_range,
+        vf_coef=config.vf_coef,
+        ent_coef=config.ent_coef,
+        learning_rate=config.learning_rate,
+        max_grad_norm=config.max_grad_norm,
+        hidden=config.hidden,
+    )
+
+
 def _dims(make_env: Callable[[], Any]) -> tuple[int, int]:
     env = make_env()
     try:
@@ -141,9 +152,8 @@ def train(config: PPOConfig, make_env: Callable[[], Any], *, seed: int, device: 
     with seeded_torch(seed, config.threads):
         n_obs, n_act = _dims(make_env)
         nets = ActorCritic(n_obs, n_act, config.hidden).to(device)
-        loss = ppo_loss(nets, clip_range=config.clip_range, vf_coef=config.vf_coef, ent_coef=config.ent_coef)
         gae = GAE(gamma=config.gamma, lmbda=config.gae_lambda, value_network=nets.critic(), average_gae=False)
-        update = MinibatchUpdate(nets, loss, learning_rate=config.learning_rate, max_grad_norm=config.max_grad_norm, compiled=compiled)
+        update = MinibatchUpdate(nets, loss_settings(config), compiled=compiled)
         buffer = ReplayBuffer(
             storage=LazyTensorStorage(config.rollout_steps, device=device),
             sampler=SamplerWithoutReplacement(),
@@ -156,9 +166,10 @@ def train(config: PPOConfig, make_env: Callable[[], Any], *, seed: int, device: 
             nets.sampler(),
             frames_per_batch=config.rollout_steps,
             total_frames=config.rollouts * config.rollout_steps,
-            policy_device=device,
-            env_device="cpu",
-            storing_device=device,
+            # on CPU no device at all: the collector then copies nothing between steps
+            policy_device=None if device.type == "cpu" else device,
+            env_device=None if device.type == "cpu" else "cpu",
+            storing_device=None if device.type == "cpu" else device,
             auto_register_policy_transforms=False,  # the policy needs no transform
             track_traj_ids=False,  # PPO needs none (GAE reads the done flags)
         )
@@ -211,7 +222,6 @@ def train(config: PPOConfig, make_env: Callable[[], Any], *, seed: int, device: 
         finally:
             collector.shutdown()
             envs.close()
-            update.release()
         nets.load_state_dict(best_state)
     return TrainResult(
         nets=nets,
