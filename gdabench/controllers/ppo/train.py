@@ -195,6 +195,9 @@ def train(config: PPOConfig, make_env: Callable[[], Any], *, seed: int, device: 
                     rollout = next(rollouts, None)
                 if rollout is None:
                     break
+                if torch.get_num_threads() != config.threads:
+                    # the collector closes a SerialEnv after the last rollout, and closing it raises the thread count
+                    torch.set_num_threads(config.threads)
                 before, steps = steps, steps + rollout.numel()
                 if steps // interval > before // interval:
                     with clock("evaluate"):

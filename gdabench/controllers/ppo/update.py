@@ -90,7 +90,7 @@ class _CompiledStep:
         # the template's sizes do not matter: the parameters passed in replace its own
         self.objective = Objective(ActorCritic(2, 2, settings.hidden), settings)
         self.names = [name for name, _ in self.objective.named_parameters()]
-        self.compiled = torch.compile(self._step, fullgraph=True, options={"guard_filter_fn": _input_guards})
+        self.compiled = torch.compile(self._step, fullgraph=True, options={"guard_filter_fn": _input_guards, "size_asserts": False})
 
     def _step(self, params: list[torch.Tensor], exp_avgs: list[torch.Tensor], exp_avg_sqs: list[torch.Tensor], steps: list[torch.Tensor], *batch: torch.Tensor) -> torch.Tensor:
         def objective(named: dict[str, torch.Tensor]) -> tuple[torch.Tensor, torch.Tensor]:
@@ -100,7 +100,7 @@ class _CompiledStep:
             named_grads, (loss, value_loss) = grad_and_value(objective, has_aux=True)(dict(zip(self.names, params)))
             grads = clipped(list(named_grads.values()), self.settings.max_grad_norm)
             beta1, beta2 = ADAM_BETAS
-            adam(params, grads, exp_avgs, exp_avg_sqs, [], steps, amsgrad=False, beta1=beta1, beta2=beta2, lr=self.settings.learning_rate, weight_decay=0.0, eps=ADAM_EPS, maximize=False)
+            adam(params, grads, exp_avgs, exp_avg_sqs, [], steps, foreach=True, capturable=True, amsgrad=False, beta1=beta1, beta2=beta2, lr=self.settings.learning_rate, weight_decay=0.0, eps=ADAM_EPS, maximize=False)
         return torch.stack([loss, value_loss])
 
 
@@ -133,7 +133,7 @@ def compiled_step(settings: LossSettings) -> _CompiledStep:
 
 def clipped(grads: Sequence[torch.Tensor], max_norm: float) -> list[torch.Tensor]:
     """``grads`` scaled as ``clip_grad_norm_`` scales gradients (same coefficient, on plain tensors)."""
-    total = nn.utils.get_total_norm(grads)
+    total = nn.utils.get_total_norm(grads, foreach=False)  # inductor fuses per-tensor norms; it calls _foreach_norm out of the graph
     scale = torch.clamp(max_norm / (total + 1e-6), max=1.0)
     return [g * scale for g in grads]
 
