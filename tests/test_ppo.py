@@ -16,12 +16,15 @@ import numpy as np
 import pytest
 import torch
 from torch._dynamo.utils import counters
+from torchrl.collectors import Collector
+from torchrl.envs import EnvBase
 from typer.testing import CliRunner
 
 from gdabench.body import as_body
 from gdabench.cli import app
 from gdabench.controllers.ppo import PPO, PPOConfig, replay
 from gdabench.controllers.ppo.evaluation import episode_score
+from gdabench.controllers.ppo.envs import BodyEnvs, box_dims
 from gdabench.controllers.ppo.networks import ActorCritic
 from gdabench.controllers.ppo.policy_file import META_FILE, WEIGHTS_FILE
 from gdabench.controllers.ppo.train import train
@@ -113,6 +116,73 @@ def test_saved_policy_reloads_and_reproduces_its_reward(tmp_path):
     retrained = walker.evaluate(WALKER, seed=3, controller=PPO(timesteps=256, eval_interval=256), workdir=tmp_path)
     assert retrained.info["replayed"] == 0  # other settings: trained anew, and the new policy saved
     assert json.loads((tmp_path / META_FILE).read_text())["trained_with"]["settings"]["eval_interval"] == 256
+
+
+def test_parallel_environments_train_seeded_with_finite_rewards(monkeypatch):
+    config = PPOConfig(timesteps=512, n_envs=2, eval_interval=256)  # two rollouts of 2 x 128 steps
+    make_env = functools.partial(make_walker, WALKER)
+    threads, step = set(), MinibatchUpdate.__call__
+    monkeypatch.setattr(MinibatchUpdate, "__call__", lambda self, *t: threads.add(torch.get_num_threads()) or step(self, *t))
+    a = train(config, make_env, seed=5, device=torch.device("cpu"), compiled=False)
+    assert threads == {config.threads}  # closing the SerialEnv after the last rollout raises torch's thread count
+    b = train(config, make_env, seed=5, device=torch.device("cpu"), compiled=False)
+    assert a.timesteps == 512 and len(a.losses) == 2 and np.isfinite(a.losses).all()
+    assert [e.scores for e in a.evaluations] == [e.scores for e in b.evaluations] and len(a.evaluations) == 3
+    assert np.isfinite(a.reward) and a.reward == b.reward
+
+    # the two environments are stepped side by side, each with its own actions
+    rollout = collect(BodyEnvs(make_env, 2), ActorCritic(*box_dims(make_env()), (8,)), frames=20)
+    assert rollout.batch_size == (2, 10)
+    assert not torch.equal(rollout["next", "observation"][0], rollout["next", "observation"][1])
+
+
+class Ticks(gymnasium.Env):
+    """Observation [steps so far, first action]; reward = steps so far; terminates after ``length`` steps."""
+
+    def __init__(self, length: int):
+        self.length, self.t = length, 0
+        self.observation_space = gymnasium.spaces.Box(-np.inf, np.inf, (2,), np.float64)
+        self.action_space = gymnasium.spaces.Box(0.6, 1.6, (1,), np.float64)
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self.t = 0
+        return np.array([0.0, 0.0]), {}
+
+    def step(self, action):
+        self.t += 1
+        return np.array([self.t, action[0]]), float(self.t), self.t == self.length, False, {}
+
+
+class GenericBodyEnvs(BodyEnvs):
+    step_and_maybe_reset = EnvBase.step_and_maybe_reset  # TorchRL's own, through _step and _reset
+
+
+def collect(envs: BodyEnvs, nets: ActorCritic, frames: int):
+    envs.set_seed(0)
+    torch.manual_seed(0)
+    collector = Collector(envs, nets.sampler(), frames_per_batch=frames, total_frames=frames)
+    try:
+        return next(iter(collector))
+    finally:
+        collector.shutdown()
+        if not envs.is_closed:
+            envs.close()
+
+
+def test_the_lean_env_step_matches_torchrls_generic_step():
+    def two_envs():  # one env truncated by a time limit every 2 steps, one terminating every 3 steps
+        envs = iter([gymnasium.wrappers.TimeLimit(Ticks(10), max_episode_steps=2), Ticks(3)])
+        return lambda: next(envs)
+
+    nets = ActorCritic(2, 1, (4,))
+    lean, generic = collect(BodyEnvs(two_envs(), 2), nets, 14), collect(GenericBodyEnvs(two_envs(), 2), nets, 14)
+    assert set(lean.keys(True, True)) == set(generic.keys(True, True))
+    for key in generic.keys(True, True):
+        torch.testing.assert_close(lean[key], generic[key], msg=str(key))
+    assert lean["next", "truncated"][0].sum() == 3 and lean["next", "terminated"][1].sum() == 2
+    assert lean["observation"][:, 0, 0].tolist() == [0.0, 0.0]  # reset observations follow every episode end
+    assert (lean["observation"][0, 2::2, 0] == 0).all() and (lean["observation"][1, 3::3, 0] == 0).all()
 
 
 def test_an_unstable_body_is_scored_not_crashed():

@@ -36,7 +36,7 @@ from torchrl.data.replay_buffers import SamplerWithoutReplacement
 from torchrl.objectives.value import GAE
 
 from .config import PPOConfig
-from .envs import TrainingEnvs, box_dims
+from .envs import BodyEnvs, box_dims
 from .evaluation import evaluate_policy
 from .networks import ActorCritic
 from .update import BATCH_KEYS, LossSettings, MinibatchUpdate
@@ -160,9 +160,10 @@ def train(config: PPOConfig, make_env: Callable[[], Any], *, seed: int, device: 
             generator=torch.Generator().manual_seed(seed),
             batch_size=config.rollout_steps,
         )
-        envs = TrainingEnvs(make_env, config.n_envs, seed=seed)
+        envs = BodyEnvs(make_env, config.n_envs)
+        envs.set_seed(seed)
         collector = Collector(
-            envs.env,
+            envs,
             nets.sampler(),
             frames_per_batch=config.rollout_steps,
             total_frames=config.rollouts * config.rollout_steps,
@@ -195,9 +196,6 @@ def train(config: PPOConfig, make_env: Callable[[], Any], *, seed: int, device: 
                     rollout = next(rollouts, None)
                 if rollout is None:
                     break
-                if torch.get_num_threads() != config.threads:
-                    # the collector closes a SerialEnv after the last rollout, and closing it raises the thread count
-                    torch.set_num_threads(config.threads)
                 before, steps = steps, steps + rollout.numel()
                 if steps // interval > before // interval:
                     with clock("evaluate"):
@@ -224,7 +222,8 @@ def train(config: PPOConfig, make_env: Callable[[], Any], *, seed: int, device: 
                 evaluate(steps)
         finally:
             collector.shutdown()
-            envs.close()
+            if not envs.is_closed:
+                envs.close()
         nets.load_state_dict(best_state)
     return TrainResult(
         nets=nets,
