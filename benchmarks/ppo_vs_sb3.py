@@ -8,15 +8,17 @@ machine load.  Printed per run and as medians:
 
 * throughput: environment steps per second of training (collection + updates, no
   evaluation).  For gdabench it is given with and without the first minibatch step, which
-  includes compiling (a fixed cost per body of a few seconds); CPU-seconds of the process
-  are printed too, because on a shared machine wall-clock time is not all the process's own;
+  includes compiling (a few seconds, once per process: every training here runs in a fresh
+  process, so each one pays it); CPU-seconds of the process are printed too, because on a
+  shared machine wall-clock time is not all the process's own, and the ratio of each
+  gdabench training to the SB3 training of the same seed run next to it;
 * final mean evaluation reward: the final policy of each side plays ``--episodes`` episodes
   scored the same way (actions sampled from a seeded generator, Evolution Gym 2.0's
   convention of dropping the last step's reward) and, separately, its mean action.
 
 Usage (needs the ``bench`` extra: ``pip install -e .[bench]``)::
 
-    python benchmarks/ppo_vs_sb3.py --timesteps 50000 --seeds 0,1,2
+    python benchmarks/ppo_vs_sb3.py --timesteps 30000 --seeds 0,1,2 --repeats 2
 """
 
 from __future__ import annotations
@@ -116,6 +118,7 @@ def main() -> None:
     parser.add_argument("--body", default=DEFAULT_BODY)
     parser.add_argument("--timesteps", type=int, default=50_000)
     parser.add_argument("--seeds", default="0,1,2")
+    parser.add_argument("--repeats", type=int, default=1, help="trainings per side and seed (throughput varies with the machine's load)")
     parser.add_argument("--episodes", type=int, default=5, help="evaluation episodes with sampled actions")
     parser.add_argument("--sides", default="sb3,gdabench", help="sb3, gdabench (compiled step), gdabench-eager")
     parser.add_argument("--one", help=argparse.SUPPRESS)
@@ -125,23 +128,32 @@ def main() -> None:
         print(json.dumps(run_one(args.one, args.body, args.timesteps, seeds[0], args.episodes)))
         return
     sides = args.sides.split(",")
-    print(f"body {args.body}, {args.timesteps} timesteps, seeds {seeds}, sides alternate: {', '.join(sides)}", flush=True)
+    print(f"body {args.body}, {args.timesteps} timesteps, seeds {seeds} x {args.repeats}, sides alternate: {', '.join(sides)}", flush=True)
     rows = []
-    for seed in seeds:
-        for side in sides if seed % 2 == 0 else sides[::-1]:  # alternate who goes first
-            row = _spawn(side, args, seed)
-            rows.append(row)
-            print(json.dumps({k: round(v, 3) if isinstance(v, float) else v for k, v in row.items()}), flush=True)
-    print("\nmedians over seeds:")
+    for repeat in range(args.repeats):
+        for seed in seeds:
+            for side in sides if (seed + repeat) % 2 == 0 else sides[::-1]:  # alternate who goes first
+                row = {**_spawn(side, args, seed), "repeat": repeat}
+                rows.append(row)
+                print(json.dumps({k: round(v, 3) if isinstance(v, float) else v for k, v in row.items()}), flush=True)
+    print(f"\nmedians over {len(seeds)} seeds x {args.repeats} repeats:")
     keys = ["steps_per_s", "steps_per_s_after_warmup", "steps_per_s_cpu", "warmup_s", "reward", "reward_mean_action"]
     medians = {side: {k: statistics.median(r[k] for r in rows if r["side"] == side) for k in keys if all(k in r for r in rows if r["side"] == side)} for side in sides}
     for side, figures in medians.items():
         print(f"  {side:15s} " + "  ".join(f"{k}={v:.3f}" for k, v in figures.items()))
     if "sb3" in medians:
         for side in sides:
-            if side != "sb3":
-                speed = medians[side]["steps_per_s"] / medians["sb3"]["steps_per_s"]
-                print(f"  {side} / sb3: throughput x{speed:.2f}, reward {medians[side]['reward']:.3f} vs {medians['sb3']['reward']:.3f}")
+            if side == "sb3":
+                continue
+            # each training against the SB3 training of the same seed and repeat, run next to it (same machine load)
+            pairs = {(r["seed"], r["repeat"]): r for r in rows if r["side"] == "sb3"}
+            ratios = sorted(r["steps_per_s"] / pairs[r["seed"], r["repeat"]]["steps_per_s"] for r in rows if r["side"] == side)
+            cpu = statistics.median(r["steps_per_s_cpu"] / pairs[r["seed"], r["repeat"]]["steps_per_s_cpu"] for r in rows if r["side"] == side)
+            speed = medians[side]["steps_per_s"] / medians["sb3"]["steps_per_s"]
+            print(
+                f"  {side} / sb3: throughput x{speed:.2f} (ratio of medians); per pair median x{statistics.median(ratios):.2f}, "
+                f"lowest x{ratios[0]:.2f}; CPU-seconds x{cpu:.2f}; reward {medians[side]['reward']:.3f} vs {medians['sb3']['reward']:.3f}"
+            )
 
 
 if __name__ == "__main__":
