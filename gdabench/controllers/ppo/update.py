@@ -133,7 +133,8 @@ def compiled_step(settings: LossSettings) -> _CompiledStep:
 
 def clipped(grads: Sequence[torch.Tensor], max_norm: float) -> list[torch.Tensor]:
     """``grads`` scaled as ``clip_grad_norm_`` scales gradients (same coefficient, on plain tensors)."""
-    total = nn.utils.get_total_norm(grads, foreach=False)  # inductor fuses per-tensor norms; it calls _foreach_norm out of the graph
+    # per-tensor norms, which inductor fuses into its kernel (it would call _foreach_norm as a separate op)
+    total = nn.utils.get_total_norm(grads, foreach=False)
     scale = torch.clamp(max_norm / (total + 1e-6), max=1.0)
     return [g * scale for g in grads]
 
