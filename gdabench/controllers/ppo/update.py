@@ -8,8 +8,10 @@ are tiny).  Two interchangeable implementations of the same step:
   torch's functional Adam) is one ``torch.compile`` graph, which removes nearly all of that
   overhead.  Tracing it takes seconds, so it is done once per process and loss setting, not
   once per body: the graph is traced on a template network and every body's parameters and
-  optimiser state are *inputs* to it; bodies with other numbers of observations or actuators
-  reuse it too (dynamo makes those sizes dynamic on the second layout it meets).
+  optimiser state are *inputs* to it.  Bodies with other numbers of observations or actuators
+  reuse it too: dynamo traces it again with those sizes dynamic on the second layout it meets,
+  and once more for more observations than the hidden width (its layout choices compare the
+  two), and then no more.
 * eager: the textbook ``loss.backward(); clip_grad_norm_(); optimizer.step()``.
 
 Both use Adam with stable-baselines3's epsilon of 1e-5 and share its state; they agree to
@@ -100,7 +102,7 @@ class _CompiledStep:
             named_grads, (loss, value_loss) = grad_and_value(objective, has_aux=True)(dict(zip(self.names, params)))
             grads = clipped(list(named_grads.values()), self.settings.max_grad_norm)
             beta1, beta2 = ADAM_BETAS
-            adam(params, grads, exp_avgs, exp_avg_sqs, [], steps, foreach=True, capturable=True, amsgrad=False, beta1=beta1, beta2=beta2, lr=self.settings.learning_rate, weight_decay=0.0, eps=ADAM_EPS, maximize=False)
+            adam(params, grads, exp_avgs, exp_avg_sqs, [], steps, amsgrad=False, beta1=beta1, beta2=beta2, lr=self.settings.learning_rate, weight_decay=0.0, eps=ADAM_EPS, maximize=False)
         return torch.stack([loss, value_loss])
 
 
