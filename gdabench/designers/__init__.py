@@ -19,4 +19,14 @@ def gdabench_designers() -> list[DesignerSpec]:
             factory="gdabench.designers.random_search:RandomSearch",
             description="Fresh random valid bodies every generation: the floor any designer must beat",
         ),
+        DesignerSpec(
+            name="gda",
+            factory="gdabench.designers.gda:GenerationalDiffusion",
+            description="Generational diffusion algorithm of the thesis: a fresh DDPM trained on the survivors each generation",
+        ),
+        DesignerSpec(
+            name="gda-fast",
+            factory="gdabench.designers.gda:FastGenerationalDiffusion",
+            description="GDA with the best measured improvements (see README): faster and reaches the optimum sooner",
+        ),
     ]
