@@ -15,6 +15,7 @@ import torch
 from gdabench import Body, ConfigError, make_designer, random_body
 from gdabench.designers.gda import GenerationalDiffusion
 from gdabench.designers.gda import designer as gda_designer
+from gdabench.designers.gda.backprop import FastUNet, module_layout
 from gdabench.designers.gda.encoding import EVOGYM_TO_MODEL, decode, encode, published_reencoding
 from gdabench.designers.gda.model import UNet, parameter_count
 from gdabench.designers.gda.runtime import torch_threads
@@ -68,6 +69,29 @@ def test_model_computes_the_thesis_architecture(grad):
     x, t = torch.randn(7, 1, 5, 5), torch.randint(1, 500, (7,))
     with torch.set_grad_enabled(grad):
         assert torch.allclose(ours(x, t), ref(x, t), atol=1e-5)
+
+
+@pytest.mark.parametrize("batch", [5, 4])
+def test_hand_derived_training_step_matches_autograd(batch):
+    torch.manual_seed(1)
+    model = UNet()
+    net = FastUNet(model, (5, 5), torch.device("cpu"))
+    net.params.load()
+    x, noise = torch.randn(batch, 1, 5, 5), torch.randn(batch, 1, 5, 5)
+    feats = model.time_features(torch.randint(1, 500, (batch,)))
+    expected = torch.nn.functional.mse_loss(model.forward_features(x, feats), noise)
+    grads = torch.autograd.grad(expected, list(model.parameters()))
+    with torch.no_grad():
+        loss = net.step(x, feats, noise)
+    assert loss.item() == pytest.approx(expected.item(), rel=1e-5)
+    for (p, kind, _), g in zip(net.params.entries, grads):
+        ours = module_layout(net.params.of(p)[1], kind, p.shape)
+        assert torch.allclose(ours, g, rtol=1e-4, atol=1e-5 * g.abs().max().item())
+    copy = UNet()
+    other = FastUNet(copy, (5, 5), torch.device("cpu"))
+    other.params.flat.copy_(net.params.flat)
+    other.params.store()  # the training layout converts back to the module exactly
+    assert all(torch.equal(a, b) for a, b in zip(copy.parameters(), model.parameters()))
 
 
 # -- encoding ------------------------------------------------------------------------------------
@@ -295,7 +319,7 @@ def test_pickled_designer_resumes_exactly(params):
 
 
 def test_variants_and_options_run():
-    for designer in (gda(schedule="cosine"), gda(sampler="ddim", sample_steps=10), gda(sample_batch=7)):
+    for designer in (gda(schedule="cosine"), gda(sampler="ddim", sample_steps=10), gda(sample_batch=7), gda(temperature=0.5)):
         history = run(designer, 2)
         assert all(len(gen) == 10 and all(b.is_valid for b in gen) for gen in history)
     fast = make_designer("gda-fast", seed=0, shape=(5, 5), population=10, budget=1000, steps=50, epochs=2)
@@ -321,6 +345,8 @@ def test_prior_bodies_train_the_first_model(tmp_path, captured_training):
         ({"epochs": 0}, "epochs must be a positive integer"),
         ({"prior": "/nonexistent/run"}, "not found"),
         ({"threads": 0}, "threads must be at least 1"),
+        ({"temperature": -1}, "temperature must be at least 0"),
+        ({"compile": "sometimes"}, "compile must be"),
     ],
 )
 def test_bad_parameters_are_one_line_errors(params, message):

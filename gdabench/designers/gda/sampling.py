@@ -25,9 +25,20 @@ SAMPLERS = ("ddpm", "ddim")
 
 @torch.inference_mode()
 def ancestral_sample(
-    model: UNet, schedule: NoiseSchedule, n: int, shape: tuple[int, int], generator: torch.Generator, device: torch.device
+    model: UNet,
+    schedule: NoiseSchedule,
+    n: int,
+    shape: tuple[int, int],
+    generator: torch.Generator,
+    device: torch.device,
+    temperature: float = 1.0,
 ) -> torch.Tensor:
-    """``n`` samples (n, 1, H, W) by ancestral sampling over t = T-1 .. 1 (T-1 network calls)."""
+    """``n`` samples (n, 1, H, W) by ancestral sampling over t = T-1 .. 1 (T-1 network calls).
+
+    ``temperature`` scales the noise added at each step (1 = the thesis sampler); below 1 the
+    chain drifts towards the modes of what the model learnt, e.g. the voxel-wise consensus
+    of the survivors.
+    """
     model.eval()
     T = schedule.steps
     betas, alphas, alpha_bars = schedule.betas.tolist(), schedule.alphas.tolist(), schedule.alpha_bars.tolist()
@@ -38,7 +49,7 @@ def ancestral_sample(
         eps = model.forward_features(x, feats[t : t + 1])
         x.sub_(eps, alpha=(1.0 - alphas[t]) / math.sqrt(1.0 - alpha_bars[t])).mul_(1.0 / math.sqrt(alphas[t]))
         if t > 1:
-            x.add_(z[T - 1 - t], alpha=math.sqrt(betas[t]))
+            x.add_(z[T - 1 - t], alpha=temperature * math.sqrt(betas[t]))
     return x
 
 
@@ -60,6 +71,7 @@ def ddim_sample(
     device: torch.device,
     steps: int = 50,
     eta: float = 1.0,
+    temperature: float = 1.0,
 ) -> torch.Tensor:
     """``n`` samples by DDIM over ``steps`` timesteps, ending at index 0 like the thesis sampler.
 
@@ -69,7 +81,8 @@ def ddim_sample(
     sampling on the shorter chain (the DDPM posterior variance, slightly below the thesis's
     sigma^2 = beta); ``eta = 0`` is deterministic, and with models trained as briefly as GDA's
     it collapses most draws onto a few degenerate bodies (measured: 5-10% of draws near the
-    training body against about 50% for eta = 1), so 1 is the default.
+    training body against about 50% for eta = 1), so 1 is the default.  ``temperature``
+    scales sigma as in :func:`ancestral_sample`.
     """
     model.eval()
     alpha_bars = schedule.alpha_bars.tolist()
@@ -86,5 +99,5 @@ def ddim_sample(
         sigma = 0.0 if last else eta * math.sqrt(max((1.0 - ab_s) / (1.0 - ab_t) * (1.0 - ab_t / ab_s), 0.0))
         x = math.sqrt(ab_s) * x0 + math.sqrt(max(1.0 - ab_s - sigma**2, 0.0)) * eps
         if sigma > 0:
-            x.add_(z[i], alpha=sigma)
+            x.add_(z[i], alpha=temperature * sigma)
     return x

@@ -6,22 +6,24 @@ every epoch and cut into batches of 5 (12 batches of 5 and one of 4); each item 
 minimises the MSE between the true and the predicted noise.
 
 What makes it fast is not the arithmetic but the overhead around it (a step is a few
-milliseconds of tiny kernels): all parameters and gradients live in two flat buffers, so the
-optimizer is one fused kernel over 90,833 numbers instead of ~80 small updates; each epoch's
-shuffle, timesteps, noise and noisy inputs are drawn and computed in a handful of batched
-operations; the time features of every timestep are tabulated once.
+milliseconds of tiny kernels): the forward and backward passes are hand-derived
+(:mod:`.backprop`), all parameters and gradients live in two flat buffers so the optimizer is
+one fused kernel over 90,833 numbers, each epoch's shuffle, timesteps, noise and noisy inputs
+are drawn and computed in a handful of batched operations, and the time features of every
+timestep are tabulated once.
 """
 
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass
+from typing import Callable
 
 import torch
-import torch.nn.functional as F
 
+from .backprop import FastUNet
 from .model import UNet, reset_parameters
-from .runtime import native_convolutions
 from .schedule import NoiseSchedule
 
 
@@ -41,62 +43,85 @@ def repeat_to(data: torch.Tensor, size: int) -> torch.Tensor:
 
 
 class Trainer:
-    """One U-Net with flat parameter and gradient buffers and its AdamW optimizer.
+    """One U-Net (for sampling), its fast training step, and AdamW over the flat parameters.
 
     :meth:`reset` makes the model fresh (new random weights, new optimizer state) without
-    allocating a new one; :meth:`fit` trains it.  ``convolution_backend='native'`` runs the
-    convolutions without oneDNN, which is faster for these 5x5 grids on CPUs.
+    allocating a new one; :meth:`fit` trains it and leaves the trained weights in ``model``.
     """
 
     def __init__(
         self,
         schedule: NoiseSchedule,
         *,
+        shape: tuple[int, int] = (5, 5),
         lr: float = 1e-3,
         weight_decay: float = 0.01,
         device: torch.device | str = "cpu",
-        onednn: bool = False,
+        compile: bool = False,
     ):
         self.device = torch.device(device)
-        self.model = UNet().to(self.device)
+        self.compile = compile
+        self._compiled: dict[int, Callable[..., torch.Tensor]] = {}
+        with torch.random.fork_rng(devices=[]):  # construction draws weights that reset() replaces
+            self.model = UNet().to(self.device)
+            self._cpu_model = self.model if self.device.type == "cpu" else UNet()
+        self.net = FastUNet(self.model, shape, self.device)
         self.lr, self.weight_decay = float(lr), float(weight_decay)
-        self.onednn = onednn
-        params = list(self.model.parameters())
-        self.flat = torch.cat([p.detach().reshape(-1) for p in params])
-        self.flat_grad = torch.zeros_like(self.flat)
-        offset = 0
-        for p in params:  # parameters become views into the flat buffers
-            n = p.numel()
-            p.data = self.flat[offset : offset + n].view_as(p)
-            p.grad = self.flat_grad[offset : offset + n].view_as(p)
-            offset += n
-        self.flat_param = torch.nn.Parameter(self.flat)
-        self.flat_param.grad = self.flat_grad
+        self.param = torch.nn.Parameter(self.net.params.flat)
+        self.param.grad = self.net.params.grad
         self.set_schedule(schedule)
         self.optimizer = self._new_optimizer()
+
+    @property
+    def flat(self) -> torch.Tensor:
+        """All weights in one vector (the training layout; see :mod:`.backprop`)."""
+        return self.net.params.flat
+
+    def _step(self, size: int, full: int) -> Callable[..., torch.Tensor]:
+        """The training step for a batch of ``size``: compiled for full batches when asked for."""
+        if not self.compile or size != full:
+            return self.net.step
+        step = self._compiled.get(size)
+        if step is None:
+            step = self._compiled[size] = self._compile(size)
+        return step
+
+    def _compile(self, size: int) -> Callable[..., torch.Tensor]:
+        """``torch.compile`` the step for one batch size; on any failure warn once and stay eager."""
+        compiled = torch.compile(self.net.step, dynamic=False)
+
+        def first_call(*args: torch.Tensor) -> torch.Tensor:
+            try:
+                loss = compiled(*args)
+            except Exception as exc:  # noqa: BLE001 - no compiler, unsupported platform, ...
+                warnings.warn(f"gda: torch.compile failed ({type(exc).__name__}: {exc}); training without it", RuntimeWarning, stacklevel=2)
+                self.compile = False
+                return self.net.step(*args)
+            self._compiled[size] = compiled
+            return loss
+
+        return first_call
 
     def set_schedule(self, schedule: NoiseSchedule) -> None:
         self.schedule = schedule
         ab = schedule.alpha_bars
         self.sqrt_ab = ab.sqrt().to(self.device, torch.float32)
         self.sqrt_1m_ab = (1.0 - ab).sqrt().to(self.device, torch.float32)
-        with torch.no_grad():
-            self.time_table = self.model.time_features(torch.arange(schedule.steps, device=self.device))
+        self.time_table = self.model.time_features(torch.arange(schedule.steps, device=self.device))
 
     def _new_optimizer(self) -> torch.optim.Optimizer:
-        return torch.optim.AdamW([self.flat_param], lr=self.lr, weight_decay=self.weight_decay, fused=True)
+        return torch.optim.AdamW([self.param], lr=self.lr, weight_decay=self.weight_decay, fused=True)
 
+    @torch.no_grad()
     def reset(self, generator: torch.Generator) -> None:
-        """A fresh model: weights re-drawn from ``generator`` (CPU) and a new optimizer."""
-        if self.device.type == "cpu":
-            reset_parameters(self.model, generator)
-        else:  # draw on the CPU so that a seed gives the same initial weights on every device
-            cpu = UNet()
-            reset_parameters(cpu, generator)
-            with torch.no_grad():
-                self.flat.copy_(torch.cat([p.reshape(-1) for p in cpu.parameters()]))
+        """A fresh model: weights re-drawn from ``generator`` (on the CPU) and a new optimizer."""
+        reset_parameters(self._cpu_model, generator)
+        if self._cpu_model is not self.model:
+            self.model.load_state_dict(self._cpu_model.state_dict())
+        self.net.params.load()
         self.optimizer = self._new_optimizer()
 
+    @torch.no_grad()
     def fit(
         self,
         data: torch.Tensor,
@@ -119,25 +144,20 @@ class Trainer:
         steps = self.schedule.steps
         bounds = [(s, min(s + batch_size, dataset_size)) for s in range(0, dataset_size, batch_size)]
         losses = torch.zeros(len(bounds), device=self.device)
-        model, optimizer, grad = self.model, self.optimizer, self.flat_grad
-        model.train()
+        net, optimizer = self.net, self.optimizer
         epoch_loss, done = float("nan"), 0
-        with native_convolutions(not self.onednn):
-            for _ in range(epochs):
-                order = torch.randperm(dataset_size, generator=generator).to(self.device)
-                t = torch.randint(1, steps, (dataset_size,), generator=generator).to(self.device)
-                noise = torch.randn((dataset_size, *shape), generator=generator).to(self.device)
-                x0 = dataset[order]
-                xt = self.sqrt_ab[t].view(-1, 1, 1, 1) * x0 + self.sqrt_1m_ab[t].view(-1, 1, 1, 1) * noise
-                feats = self.time_table[t]
-                for i, (a, b) in enumerate(bounds):
-                    loss = F.mse_loss(model.forward_features(xt[a:b], feats[a:b]), noise[a:b])
-                    grad.zero_()
-                    loss.backward()
-                    optimizer.step()
-                    losses[i] = loss.detach()
-                done += 1
-                epoch_loss = float(losses.mean())
-                if target_loss is not None and epoch_loss <= target_loss:
-                    break
+        for _ in range(epochs):
+            order = torch.randperm(dataset_size, generator=generator).to(self.device)
+            t = torch.randint(1, steps, (dataset_size,), generator=generator).to(self.device)
+            noise = torch.randn((dataset_size, *shape), generator=generator).to(self.device)
+            xt = self.sqrt_ab[t].view(-1, 1, 1, 1) * dataset[order] + self.sqrt_1m_ab[t].view(-1, 1, 1, 1) * noise
+            feats = self.time_table[t]
+            for i, (a, b) in enumerate(bounds):
+                losses[i] = self._step(b - a, batch_size)(xt[a:b], feats[a:b], noise[a:b])
+                optimizer.step()
+            done += 1
+            epoch_loss = float(losses.mean())
+            if target_loss is not None and epoch_loss <= target_loss:
+                break
+        self.net.params.store()
         return TrainResult(done, epoch_loss, time.perf_counter() - start)
