@@ -44,22 +44,33 @@ def linear_schedule(steps: int, beta_start: float, beta_end: float) -> NoiseSche
     return NoiseSchedule(torch.linspace(beta_start, beta_end, steps, dtype=torch.float32).to(torch.float64))
 
 
-def cosine_schedule(steps: int, offset: float = 0.008, max_beta: float = 0.999) -> NoiseSchedule:
-    """Betas such that ``alpha_bar`` follows cos^2 from 1 to 0 (Nichol & Dhariwal): noise is added
-    slowly at the start and the end, so fewer steps are wasted on nearly pure noise."""
+def cosine_schedule(steps: int, terminal: float, offset: float = 0.008) -> NoiseSchedule:
+    """Betas such that ``alpha_bar`` falls along cos^2 (Nichol & Dhariwal 2021) from 1 to ``terminal``.
+
+    Noise is added slowly at the start and the end, so fewer steps are spent on nearly pure
+    noise.  The original reaches alpha_bar = 0 with betas clipped at 0.999, which relies on
+    clamping the sampler's estimates; the thesis sampler does not clamp, so the curve is
+    rescaled to end at the linear schedule's noise level instead (largest beta about 0.04
+    at T = 500).
+    """
     f = lambda i: math.cos((i / steps + offset) / (1 + offset) * math.pi / 2) ** 2  # noqa: E731
-    betas = [min(1.0 - f(i + 1) / f(i), max_beta) for i in range(steps)]
+    alpha_bars = [terminal + (1.0 - terminal) * f(i + 1) / f(0) for i in range(steps)]
+    betas = [1.0 - alpha_bars[0]] + [1.0 - alpha_bars[i] / alpha_bars[i - 1] for i in range(1, steps)]
     return NoiseSchedule(torch.tensor(betas, dtype=torch.float64))
 
 
 def make_schedule(kind: str, steps: int, beta_start: float, beta_end: float) -> NoiseSchedule:
-    """The schedule called ``kind`` ('linear' or 'cosine'); bad values raise :class:`ConfigError`."""
+    """The schedule called ``kind`` ('linear' or 'cosine'); bad values raise :class:`ConfigError`.
+
+    The cosine schedule ends at the noise level of the linear one with the same arguments.
+    """
     if steps < 2:
         raise ConfigError(f"gda: steps (T) must be at least 2, got {steps}")
-    if kind == "linear":
-        if not 0.0 < beta_start <= beta_end < 1.0:
-            raise ConfigError(f"gda: need 0 < beta_start <= beta_end < 1, got {beta_start} and {beta_end}")
-        return linear_schedule(steps, beta_start, beta_end)
+    if kind not in SCHEDULES:
+        raise ConfigError(f"gda: unknown schedule {kind!r}; choose one of {', '.join(SCHEDULES)}")
+    if not 0.0 < beta_start <= beta_end < 1.0:
+        raise ConfigError(f"gda: need 0 < beta_start <= beta_end < 1, got {beta_start} and {beta_end}")
+    linear = linear_schedule(steps, beta_start, beta_end)
     if kind == "cosine":
-        return cosine_schedule(steps)
-    raise ConfigError(f"gda: unknown schedule {kind!r}; choose one of {', '.join(SCHEDULES)}")
+        return cosine_schedule(steps, terminal=float(linear.alpha_bars[-1]))
+    return linear
