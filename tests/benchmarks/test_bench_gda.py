@@ -1,6 +1,7 @@
 """Speed of the gda designer against an author-style loop, on one torch thread.
 
-Run with ``python -m pytest tests/benchmarks/test_bench_gda.py --benchmark-enable``.  Each
+Run with ``python -m pytest tests/benchmarks/test_bench_gda.py --benchmark-enable`` (add
+``--benchmark-timer=time.process_time`` on a machine shared with other work).  Each
 "author-style" benchmark re-creates the thesis code's inner loop (its architecture with
 ``nn.MultiheadAttention``, a shuffling DataLoader, per-parameter AdamW, ``loss.item()`` every
 step, a fresh timestep tensor per sampling step) without its progress bars and logging, so it
@@ -39,11 +40,21 @@ def one_thread():
         yield
 
 
-def test_train_epoch(benchmark):
+def needs_enabled(benchmark):
+    """Compiling costs a minute or two the first time: only when benchmarks really run."""
+    if benchmark.disabled:
+        pytest.skip("compiles the training step; run with --benchmark-enable")
+
+
+@pytest.mark.parametrize("compiled", [False, True], ids=["eager", "compiled"])
+def test_train_epoch(benchmark, compiled):
     """One epoch of the faithful training: 64 items, batches of 5 (13 optimizer steps)."""
-    trainer = Trainer(SCHEDULE)
+    if compiled:
+        needs_enabled(benchmark)
+    trainer = Trainer(SCHEDULE, compile=compiled)
     generator = torch.Generator().manual_seed(0)
     trainer.reset(generator)
+    trainer.fit(SURVIVORS, epochs=1, generator=generator)  # compiles, if asked
     result = benchmark(lambda: trainer.fit(SURVIVORS, epochs=1, generator=generator))
     assert result.epochs == 1
 
@@ -94,9 +105,12 @@ def test_sampling_pass_author_style(benchmark):
     benchmark.pedantic(sample, rounds=3, warmup_rounds=1)
 
 
-def test_generation(benchmark):
+@pytest.mark.parametrize("compiled", [False, True], ids=["eager", "compiled"])
+def test_generation(benchmark, compiled):
     """One whole faithful generation: train a fresh model for 250 epochs, sample 25 new bodies."""
-    designer = make_designer("gda", seed=0, population=25, budget=10_000)
+    if compiled:
+        needs_enabled(benchmark)
+    designer = make_designer("gda", seed=0, population=25, budget=10_000, compile=compiled)
     bodies = designer.ask()
     designer.tell(bodies, [float(np.asarray(b.voxels).sum()) for b in bodies])
     state = designer.__getstate__()
@@ -106,4 +120,4 @@ def test_generation(benchmark):
         designer.__dict__["_seen"] = set(state["_seen"])
         return designer.ask()
 
-    assert len(benchmark.pedantic(generation, rounds=3, warmup_rounds=0)) == 25
+    assert len(benchmark.pedantic(generation, rounds=3, warmup_rounds=1 if compiled else 0)) == 25

@@ -23,9 +23,12 @@ Departures from the author's code, all deliberate:
 
 Options beyond the thesis (each measured against the faithful setting in the README):
 ``target_mse`` (train until the epoch's mean loss reaches it), ``schedule='cosine'``,
-``sampler='ddim'`` with ``sample_steps``, ``warm_start`` (continue from the previous
-generation's weights), ``prior`` (train generation 0's model on the best bodies of another
-run instead of sampling at random).
+``sampler='ddim'`` with ``sample_steps``, ``temperature`` (noise scale while sampling),
+``warm_start`` (continue from the previous generation's weights), ``pool`` (draw more new
+bodies than needed and propose those a reward regression rates best), ``prior`` (train
+generation 0's model on the best bodies of another run instead of sampling at random).
+Speed options that keep the results' distribution: ``compile`` (``torch.compile`` the
+training step), ``threads``, ``device``.
 """
 
 from __future__ import annotations
@@ -46,6 +49,7 @@ from .encoding import decode, encode, published_reencoding
 from .runtime import check_threads, resolve_device, torch_threads
 from .sampling import SAMPLERS, ancestral_sample, ddim_sample
 from .schedule import make_schedule
+from .surrogate import ridge_predictor
 from .training import Trainer, TrainResult
 
 TORCH_STREAM = 1  # spawn-key branch of the designer's seed used for torch (weights, noise)
@@ -86,6 +90,7 @@ class GenerationalDiffusion(Designer):
         sample_steps: int = 50,
         sample_batch: int | None = None,
         temperature: float = 1.0,
+        pool: int | None = None,
         max_samples: int = 1000,
         target_mse: float | None = None,
         warm_start: bool = False,
@@ -103,7 +108,7 @@ class GenerationalDiffusion(Designer):
         for name, value in positive.items():
             if not isinstance(value, int) or isinstance(value, bool) or value < 1:
                 raise ConfigError(f"gda: {name} must be a positive integer, got {value!r}")
-        for name, value in (("batch_size", batch_size), ("sample_batch", sample_batch)):
+        for name, value in (("batch_size", batch_size), ("sample_batch", sample_batch), ("pool", pool)):
             if value is not None and (not isinstance(value, int) or value < 1):
                 raise ConfigError(f"gda: {name} must be a positive integer, got {value!r}")
         if not lr > 0:
@@ -125,6 +130,9 @@ class GenerationalDiffusion(Designer):
         if not temperature >= 0:
             raise ConfigError(f"gda: temperature must be at least 0, got {temperature!r}")
         self.temperature = float(temperature)
+        if pool is not None and pool < self.population:
+            raise ConfigError(f"gda: pool must be at least the population ({self.population}), got {pool}")
+        self.pool = pool
         self.max_samples = max_samples
         self.target_mse = None if target_mse is None else float(target_mse)
         self.warm_start = bool(warm_start)
@@ -139,6 +147,7 @@ class GenerationalDiffusion(Designer):
         self.prior_bodies = load_prior(prior, prior_top, self.shape) if prior else []
 
         self.survivors: list[Survivor] = []
+        self.evaluated: list[tuple[np.ndarray, float]] = []  # every told body, for the pool's reward model
         self.evaluations = 0
         self.generation = 0
         self._seen: set[str] = set()
@@ -164,7 +173,11 @@ class GenerationalDiffusion(Designer):
             generator = self._torch_generator()
             trained = self._train(training_set, generator)
             start = time.perf_counter()
-            sampled, drawn = self._sample_new(wanted, generator)
+            if self.pool is None:
+                sampled, drawn = self._sample_new(wanted, generator)
+            else:
+                candidates, drawn = self._sample_new(self.pool, generator, remember=False)
+                sampled = [self._remember(b) for b in self._most_promising(candidates, wanted)]
             sample_seconds = time.perf_counter() - start
             fallback = [self._remember(random_body(self.rng, self.shape, exclude=self._seen)) for _ in range(wanted - len(sampled))]
             bodies = sampled + fallback
@@ -181,6 +194,8 @@ class GenerationalDiffusion(Designer):
 
     def tell(self, bodies: Sequence[Body], rewards: Sequence[float]) -> None:
         self.evaluations += len(bodies)
+        if self.pool is not None:
+            self.evaluated += [(np.array(as_body(b).voxels), float(r)) for b, r in zip(bodies, rewards)]
         pool = self.survivors + [Survivor(as_body(b), float(r)) for b, r in zip(bodies, rewards)]
         scores = [s.reward for s in pool]
         self.survivors = top_k(pool, scores, self.n_survivors)[0]
@@ -249,9 +264,13 @@ class GenerationalDiffusion(Designer):
             x = ancestral_sample(trainer.model, trainer.schedule, n, self.shape, generator, trainer.device, self.temperature)
         return decode(x[:, 0].cpu().numpy())
 
-    def _sample_new(self, wanted: int, generator: torch.Generator) -> tuple[list[Body], int]:
-        """Up to ``wanted`` new valid bodies, in sampling order, drawing at most ``max_samples``."""
+    def _sample_new(self, wanted: int, generator: torch.Generator, remember: bool = True) -> tuple[list[Body], int]:
+        """Up to ``wanted`` new valid distinct bodies, in sampling order, drawing at most ``max_samples``.
+
+        ``remember=False`` leaves them out of the seen set (a pool to choose from).
+        """
         accepted: list[Body] = []
+        taken: set[str] = set()
         drawn = 0
         while len(accepted) < wanted and drawn < self.max_samples:
             n = self._pass_size(wanted - len(accepted), self.max_samples - drawn)
@@ -259,13 +278,23 @@ class GenerationalDiffusion(Designer):
                 drawn += 1
                 if invalid_reason(voxels) is None:
                     body = Body(voxels)
-                    if body.hash not in self._seen:
-                        accepted.append(self._remember(body))
+                    if body.hash not in self._seen and body.hash not in taken:
+                        taken.add(body.hash)
+                        accepted.append(self._remember(body) if remember else body)
                         if len(accepted) == wanted:
                             break
         if drawn:
             self._acceptance = 0.5 * self._acceptance + 0.5 * max(len(accepted) / drawn, 0.02)
         return accepted, drawn
+
+    def _most_promising(self, candidates: list[Body], k: int) -> list[Body]:
+        """The ``k`` candidates a ridge regression on all evaluated bodies rates best (ties: sampling order)."""
+        if len(candidates) <= k or not self.evaluated:
+            return candidates[:k]
+        voxels, rewards = zip(*self.evaluated)
+        predict = ridge_predictor(np.stack(voxels), np.array(rewards))
+        scores = predict(np.stack([b.voxels for b in candidates]))
+        return [candidates[i] for i in np.argsort(-scores, kind="stable")[:k]]
 
     def _pass_size(self, missing: int, allowed: int) -> int:
         if self.sample_batch is not None:

@@ -1,8 +1,7 @@
-"""Where and how torch runs: device choice, thread count, convolution backend.
+"""Where and how torch runs: device choice and thread count.
 
-The model is tiny (90,833 parameters, 5x5 inputs), so a training step is thousands of very
-small kernels: extra threads mostly add synchronisation, and PyTorch's native convolution
-is faster than oneDNN's at these sizes.  A GPU helps only when asked for and present.
+The model is tiny (90,833 parameters, 5x5 inputs), so a training step is a few hundred very
+small kernels: extra threads mostly add synchronisation.  A GPU is used only when asked for.
 """
 
 from __future__ import annotations
@@ -13,8 +12,6 @@ from typing import Iterator
 import torch
 
 from ...errors import ConfigError
-
-DEVICES = ("cpu", "cuda", "auto")
 
 
 def resolve_device(name: str) -> torch.device:
@@ -54,15 +51,3 @@ def torch_threads(threads: int | None) -> Iterator[None]:
     finally:
         if torch.get_num_threads() != previous:
             torch.set_num_threads(previous)
-
-
-@contextlib.contextmanager
-def native_convolutions(enabled: bool = True) -> Iterator[None]:
-    """Run convolutions without oneDNN inside the block (restores the previous setting)."""
-    previous = torch.backends.mkldnn.enabled
-    if enabled:
-        torch.backends.mkldnn.enabled = False
-    try:
-        yield
-    finally:
-        torch.backends.mkldnn.enabled = previous

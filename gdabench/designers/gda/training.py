@@ -144,7 +144,7 @@ class Trainer:
         steps = self.schedule.steps
         bounds = [(s, min(s + batch_size, dataset_size)) for s in range(0, dataset_size, batch_size)]
         losses = torch.zeros(len(bounds), device=self.device)
-        net, optimizer = self.net, self.optimizer
+        optimizer = self.optimizer
         epoch_loss, done = float("nan"), 0
         for _ in range(epochs):
             order = torch.randperm(dataset_size, generator=generator).to(self.device)
