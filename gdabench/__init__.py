@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from .body import DEFAULT_SHAPE, EMPTY, H_ACT, RIGID, SOFT, V_ACT, Body, as_body, is_valid, random_body
+from .body import DEFAULT_SHAPE, EMPTY, H_ACT, RIGID, SOFT, V_ACT, Body, as_body, is_valid, mutate, random_body
 from .config import Experiment, PluginChoice
 from .designer import Designer, ranking_rewards, top_k
 from .environment import Controller, Environment, Evaluation
@@ -22,27 +22,39 @@ from .errors import (
 )
 from .hookspecs import hookimpl
 from .plugins import registry
-from .results import RunDirectory
-from .runner import compare
 from .seeding import designer_seed
 from .specs import ControllerSpec, DesignerSpec, EnvironmentSpec
+from .envs import walker as _walker  # noqa: F401,E402 - registers gdabench/Walker-v0 with Gymnasium (pymunk loads on make)
 
 __version__ = "0.1.0"
 
 
+def __getattr__(name: str) -> Any:
+    """Import the pandas-based parts on first use, so worker processes start quickly."""
+    if name == "compare":
+        from .runner import compare
+
+        return compare
+    if name == "RunDirectory":
+        from .results import RunDirectory
+
+        return RunDirectory
+    raise AttributeError(f"module 'gdabench' has no attribute {name!r}")
+
+
 def make_designer(name: str, *, seed: int = 0, **kwargs: Any) -> Designer:
     """Build a registered designer outside the harness (seeded exactly as in a run)."""
-    return registry().get("designer", name).spec.load()(seed=designer_seed(seed), **kwargs)
+    return registry().get("designer", name).spec.create(seed=designer_seed(seed), **kwargs)
 
 
 def make_env(name: str, **kwargs: Any) -> Environment:
     """Build a registered environment, e.g. ``make_env("simple", shape=(5, 5))``."""
-    return registry().get("environment", name).spec.load()(**kwargs)
+    return registry().get("environment", name).spec.create(**kwargs)
 
 
 def make_controller(name: str, **kwargs: Any) -> Controller:
     """Build a registered controller."""
-    return registry().get("controller", name).spec.load()(**kwargs)
+    return registry().get("controller", name).spec.create(**kwargs)
 
 
 __all__ = [
@@ -77,6 +89,7 @@ __all__ = [
     "make_controller",
     "make_designer",
     "make_env",
+    "mutate",
     "random_body",
     "ranking_rewards",
     "registry",

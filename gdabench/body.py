@@ -185,6 +185,30 @@ def random_body(
     raise MalformedBodyError(f"no new valid {shape[0]}x{shape[1]} body found in {max_draws} random draws")
 
 
+def mutate(
+    parent: Body,
+    rng: np.random.Generator,
+    rate: float = 0.1,
+    attempts: int = 50,
+    weights: Sequence[float] = EVOGYM_VOXEL_WEIGHTS,
+) -> Body | None:
+    """Evolution Gym's ``mutate``: each voxel of a copy is redrawn from ``weights`` with
+    probability ``rate``; the same copy is mutated again (up to ``attempts`` times) until it is
+    valid.  Returns None when no attempt gave a valid body.  The child may equal the parent.
+    """
+    p = np.asarray(weights, dtype=float)
+    p = p / p.sum()
+    child = np.array(parent.voxels)
+    for _ in range(attempts):
+        mask = rng.random(child.shape) < rate
+        n = int(mask.sum())
+        if n:
+            child[mask] = rng.choice(N_VOXEL_TYPES, size=n, p=p)
+        if invalid_reason(child) is None:
+            return Body(child)
+    return None
+
+
 def parse_shape(text: str | Sequence[int]) -> tuple[int, int]:
     """Parse '5x5' (or a pair) into a shape tuple."""
     if isinstance(text, str):

@@ -15,6 +15,7 @@ from typing import Annotated, Any, Optional
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
@@ -23,7 +24,9 @@ from .config import Experiment, PluginChoice, parse_params, parse_seeds, split_t
 from .errors import ConfigError, DesignerError, GdabenchError
 from .plugins import KINDS, registry
 from .results import RunDirectory
-from .runner import GenerationReport, compare as run_compare
+from .report.diversity import NEAR_COPY, SURVIVORS
+from .report.tables import summary_cells
+from .runner import GenerationReport, compare as run_compare, default_out_dir
 from .summary import summarize
 
 app = typer.Typer(
@@ -39,7 +42,7 @@ KIND_ALIASES = {"designers": "designer", "envs": "environment", "environments": 
 
 
 def _fail(message: str, code: int) -> typer.Exit:
-    err_console.print(f"[bold red]error:[/] {message}", highlight=False, soft_wrap=True)
+    err_console.print(f"[bold red]error:[/] {escape(message)}", highlight=False, soft_wrap=True)
     return typer.Exit(code)
 
 
@@ -88,7 +91,7 @@ def list_plugins(
             table.add_column("description")
             table.add_column("package")
             for item in reg.items(k):
-                table.add_row(item.name, item.spec.description, f"{item.distribution} {item.version}".strip())
+                table.add_row(escape(item.name), escape(item.spec.description), escape(f"{item.distribution} {item.version}".strip()))
             console.print(table)
 
 
@@ -106,10 +109,20 @@ DesignerParam = Annotated[
 ]
 EnvParam = Annotated[Optional[list[str]], typer.Option("--env-param", "-E", help="Environment parameter KEY=VALUE.")]
 ControllerParam = Annotated[Optional[list[str]], typer.Option("--controller-param", "-C", help="Controller parameter KEY=VALUE.")]
-Workers = Annotated[int, typer.Option(help="Parallel evaluations.")]
-ExecutorOpt = Annotated[Optional[str], typer.Option("--executor", help="serial or process (default: serial for 1 worker).")]
-Resume = Annotated[Optional[Path], typer.Option(help="Continue the run in this directory (other options are taken from it).")]
+Workers = Annotated[
+    Optional[int], typer.Option(help="Evaluations at once (default: 1 for serial, every CPU for process, every cluster CPU for ray).")
+]
+ExecutorOpt = Annotated[
+    Optional[str], typer.Option("--executor", help="serial, process or ray (default: serial for 1 worker, process for more).")
+]
+RayAddress = Annotated[Optional[str], typer.Option(help="Ray cluster to join: auto (the one this machine is part of) or HOST:PORT (default: start a local one).")]
+Timeout = Annotated[Optional[float], typer.Option(help="Seconds an evaluation may take before it is stopped and recorded as 'timeout'.")]
+Cache = Annotated[Optional[Path], typer.Option(help="Directory of an evaluation cache shared across runs (deterministic environments).")]
+Resume = Annotated[
+    Optional[Path], typer.Option(help="Continue the run in this directory (its experiment is taken from it; execution options may change).")
+]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
+NoReport = Annotated[bool, typer.Option("--no-report", help="Only print the summary table; do not write the report (plots, HTML).")]
 
 
 def _designer_choices(designers: str, designer_params: list[str] | None) -> list[PluginChoice]:
@@ -144,10 +157,14 @@ def _execute(
     designer_param: list[str] | None,
     env_param: list[str] | None,
     controller_param: list[str] | None,
-    workers: int,
+    workers: int | None,
     executor: str | None,
+    ray_address: str | None,
+    timeout: float | None,
+    cache: Path | None,
     resume: Path | None,
     quiet: bool,
+    no_report: bool = False,
 ) -> None:
     guard = _Guard(resume or out)
     with guard:
@@ -190,51 +207,70 @@ def _execute(
         task = progress.add_task("starting", total=runs * experiment.budget, completed=sum(done.values()))
 
         def on_generation(report: GenerationReport) -> None:
+            if not progress.live.is_started:  # started late so that set-up errors print alone
+                progress.start()
             done[(report.designer, report.seed)] = report.n_evals
             best = "-" if report.best != report.best else f"{report.best:.4g}"
             progress.update(
                 task,
                 completed=sum(done.values()),
-                description=f"{report.designer} seed {report.seed} gen {report.generation} best {best}",
+                description=escape(f"{report.designer} seed {report.seed} gen {report.generation} best {best}"),
             )
 
-        with progress:
-            if out is None and resume is None:
-                from .runner import default_out_dir
-
-                out = default_out_dir(experiment)
-            guard.run_dir = resume or out
+        if out is None and resume is None:
+            out = default_out_dir(experiment)
+        guard.run_dir = resume or out
+        try:
             run = run_compare(
                 experiment,
                 resume or out,
                 resume=resume is not None,
                 workers=workers,
                 executor=executor,
+                timeout=timeout,
+                ray_address=ray_address,
+                cache=cache,
                 on_generation=on_generation,
                 command=["gdabench", *sys.argv[1:]],
             )
+        finally:
+            progress.stop()
+        execution = (run.meta.get("resumed") or [None])[-1] if resume is not None else run.meta.get("execution")
+        if cache is not None and isinstance(execution, dict) and execution.get("cache") is None:
+            err_console.print(f"[yellow]note:[/] environment {escape(repr(experiment.env.name))} is not deterministic; the evaluation cache was not used")
+    if no_report:
         _print_summary(run)
+        return
+    with _Guard():
+        try:
+            _write_report(run.path)
+        except GdabenchError as exc:
+            raise _fail(f"the run is complete in {run.path}, but its report failed: {exc} (retry with: gdabench report {run.path})", 1) from None
+
+
+def _print_table(title: str, headers: list[str], rows: list[list[str]]) -> None:
+    table = Table(title=escape(title), title_justify="left", show_edge=False)
+    for i, c in enumerate(headers):
+        table.add_column(escape(c), justify="left" if i < 2 else "right")
+    for cells in rows:
+        table.add_row(*map(escape, cells))  # labels such as ga[survivors=5] are not rich markup
+    console.print(table)
 
 
 def _print_summary(run: RunDirectory) -> None:
-    frame = run.load_evaluations()
-    summary = summarize(frame, run.meta.get("env_optimum"))
-    table = Table(title=f"summary ({run.path})", title_justify="left", show_edge=False)
-    has_opt = summary["optimum"].notna().any() if len(summary) else False
-    cols = ["designer", "env", "seeds", "best (median)", "best (IQR)"]
-    cols += ["seeds at optimum", "evals to optimum (median)"] if has_opt else []
-    cols += ["wall s (median)"]
-    for c in cols:
-        table.add_column(c, justify="left" if c in ("designer", "env") else "right")
-    for _, r in summary.iterrows():
-        env = r["env"] + (f" / {r['controller']}" if r["controller"] else "")
-        cells = [str(r["designer"]), env, str(r["seeds"]), f"{r['best_median']:.4g}", f"{r['best_q25']:.4g}-{r['best_q75']:.4g}"]
-        if has_opt:
-            med = r["evals_to_optimum_median"]
-            cells += [f"{r['seeds_at_optimum']}/{r['seeds']}", "not reached" if med == float("inf") else f"{med:.0f}"]
-        cells.append(f"{r['wall_seconds_median']:.1f}")
-        table.add_row(*cells)
-    console.print(table)
+    summary = summarize(run.load_evaluations(), run.meta.get("env_optimum"))
+    _print_table(f"summary ({run.path})", *summary_cells(summary))
+
+
+def _write_report(run_dir: Path, out: Path | None = None, **options: Any) -> None:
+    """Write the report of a run and print its table, notes and where it went."""
+    from .report.build import write_report  # matplotlib is imported only when a report is made
+
+    report = write_report(run_dir, out, **options)
+    _print_table(f"summary ({report.run_path})", report.headers, report.rows)
+    for note in report.notes:
+        err_console.print(f"[yellow]note:[/] {escape(note)}", highlight=False, soft_wrap=True)
+    console.print(escape(f"report: {report.out / 'report.html'} (summary: {report.out / 'summary.md'})"), highlight=False, soft_wrap=True)
 
 
 @app.command()
@@ -251,10 +287,14 @@ def compare(
     designer_param: DesignerParam = None,
     env_param: EnvParam = None,
     controller_param: ControllerParam = None,
-    workers: Workers = 1,
+    workers: Workers = None,
     executor: ExecutorOpt = None,
+    ray_address: RayAddress = None,
+    timeout: Timeout = None,
+    cache: Cache = None,
     resume: Resume = None,
     quiet: Quiet = False,
+    no_report: NoReport = False,
 ) -> None:
     """Run several designers side by side under the same budget and seeds."""
     if not designers and resume is None:
@@ -276,24 +316,83 @@ def run(
     designer_param: DesignerParam = None,
     env_param: EnvParam = None,
     controller_param: ControllerParam = None,
-    workers: Workers = 1,
+    workers: Workers = None,
     executor: ExecutorOpt = None,
+    ray_address: RayAddress = None,
+    timeout: Timeout = None,
+    cache: Cache = None,
     resume: Resume = None,
     quiet: Quiet = False,
+    no_report: NoReport = False,
 ) -> None:
     """Run one designer."""
     _execute(designers=designer, **{k: v for k, v in locals().items() if k != "designer"})
 
 
 @app.command()
-def report(run_dir: Annotated[Path, typer.Argument(help="A run directory written by compare or run.")]) -> None:
-    """Summarise a run directory (tables from evaluations.parquet)."""
+def evaluate(
+    body: Annotated[str, typer.Argument(help="Body in text form, rows separated by '/', e.g. 44444/44444/44444/44444/44444.")],
+    env: Env = "simple",
+    controller: Controller = None,
+    env_param: EnvParam = None,
+    controller_param: ControllerParam = None,
+    seed: Annotated[int, typer.Option(help="Run seed (the evaluation seed is derived from it and the body).")] = 0,
+) -> None:
+    """Score one body, exactly as a run with this seed would."""
     with _Guard():
-        run = RunDirectory.open(run_dir)
-        status = run.meta.get("status")
-        if status != "complete":
-            err_console.print(f"[yellow]note:[/] run status is {status!r}; summarising the rows written so far")
-        _print_summary(run)
+        from . import seeding
+        from .body import Body
+        from .evaluation import OK, EvalTask, evaluate as evaluate_task
+
+        parsed = Body.from_text(body)
+        reg = registry()
+        env_choice = PluginChoice.parse(env).with_params(parse_params(env_param, "environment parameter"))
+        ctrl_choice = PluginChoice.parse(controller).with_params(parse_params(controller_param, "controller parameter")) if controller else None
+        Experiment((PluginChoice("random"),), env_choice, ctrl_choice, shape=parsed.shape, population=1, budget=1).validate(reg)
+        env_recipe = reg.get("environment", env_choice.name).spec.recipe({"shape": parsed.shape, **env_choice.params})
+        reason = env_recipe.build().invalid_reason(parsed)
+        if reason is not None:
+            raise ConfigError(f"body {parsed.text} is invalid for {env_choice.name!r}: {reason}")
+        ctrl_recipe = None
+        if ctrl_choice is not None:
+            ctrl_recipe = reg.get("controller", ctrl_choice.name).spec.recipe(ctrl_choice.params)
+        outcome = evaluate_task(EvalTask(parsed, seeding.evaluation_seed(seed, parsed.hash), env_recipe, ctrl_recipe))
+        if outcome.status != OK:
+            raise _fail(f"evaluation failed: {outcome.message}", 1)
+        console.print(f"{outcome.reward:.6g}")
+
+
+@app.command()
+def report(
+    run_dir: Annotated[Path, typer.Argument(help="A run directory written by compare or run.")],
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Where to write the report (default: RUN_DIR/report).")] = None,
+    threshold: Annotated[
+        Optional[float], typer.Option(help="Reward whose first reach is counted in evaluations (default: the environment's optimum, if known).")
+    ] = None,
+    survivors: Annotated[int, typer.Option(help="Diversity: survivors = this many best bodies evaluated before a generation.")] = SURVIVORS,
+    near_copy: Annotated[int, typer.Option(help="Diversity: a proposal at most this many voxels from a survivor is a near-copy.")] = NEAR_COPY,
+    animations: Annotated[bool, typer.Option(help="Animate the best bodies, if the environment can render them.")] = True,
+) -> None:
+    """Write plots, tables and a self-contained HTML report of a run directory (also mid-run)."""
+    with _Guard():
+        _write_report(run_dir, out, threshold=threshold, survivors=survivors, near_copy=near_copy, animations=animations)
+
+
+@app.command()
+def replay(
+    run_dir: Annotated[Path, typer.Argument(help="A run directory written by compare or run.")],
+    body: Annotated[Optional[str], typer.Option("--body", help="Hash (or unique prefix) of the body to replay (default: the best).")] = None,
+    designer: Annotated[Optional[str], typer.Option("--designer", help="Only consider this designer's bodies.")] = None,
+    gif: Annotated[Optional[Path], typer.Option("--gif", help="Write an animation of the body acting to this GIF file.")] = None,
+) -> None:
+    """Replay a body of a run as it was scored (ppo replays the policy it saved, no retraining)."""
+    with _Guard():
+        from .replay import replay_run
+
+        done = replay_run(run_dir, body_hash=body, designer=designer, gif=gif)
+        console.print(f"{done.designer} seed {done.seed} body {done.body.text} ({done.body.hash}): reward {done.reward:.6g}", highlight=False)
+        if done.gif is not None:
+            console.print(f"animation: {done.gif}", highlight=False)
 
 
 def main() -> None:

@@ -74,6 +74,10 @@ class PluginChoice:
     params: Mapping[str, Any] = field(default_factory=dict)
     label: str = ""
 
+    def __post_init__(self) -> None:
+        if not self.label:
+            object.__setattr__(self, "label", self.name)
+
     @classmethod
     def parse(cls, text: str) -> PluginChoice:
         text = text.strip()
@@ -92,7 +96,7 @@ class PluginChoice:
         return PluginChoice(self.name, {**self.params, **extra}, self.label)
 
     def to_json(self) -> dict[str, Any]:
-        return {"name": self.name, "label": self.label or self.name, "params": dict(self.params)}
+        return {"name": self.name, "label": self.label, "params": dict(self.params)}
 
 
 def parse_seeds(text: str | Sequence[int] | None, repetitions: int | None = None) -> list[int]:
@@ -156,7 +160,7 @@ def check_params(kind: Kind, spec: Spec, params: Mapping[str, Any], reserved: Se
     accepted = accepted_params(spec.load())
     if accepted is None:
         return
-    unknown = sorted(set(params) - accepted)
+    unknown = sorted(set({**spec.defaults, **params}) - accepted)
     if unknown:
         choices = ", ".join(sorted(accepted - set(reserved))) or "(none)"
         raise ConfigError(f"{kind} {spec.name!r} has no parameter {unknown[0]!r}; its parameters: {choices}")
@@ -179,7 +183,7 @@ class Experiment:
         reg = reg or registry()
         if not self.designers:
             raise ConfigError("no designer given")
-        labels = [d.label or d.name for d in self.designers]
+        labels = [d.label for d in self.designers]
         if len(set(labels)) != len(labels):
             raise ConfigError(f"designers must not repeat: {', '.join(labels)}")
         if self.population < 1:

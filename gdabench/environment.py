@@ -70,3 +70,4 @@ class Environment(abc.ABC):
         saved).  Environments with nothing to show return None (the default).
         """
         return None
+

@@ -20,11 +20,12 @@ class MalformedBodyError(GdabenchError, ValueError):
     """A body (array or text) is not a voxel grid of codes 0-4."""
 
 
-class UnknownPluginError(GdabenchError, KeyError):
-    """No designer, environment or controller is registered under the requested name."""
+class InvalidBodyError(GdabenchError, ValueError):
+    """A well-formed body that breaks the validity rule was handed to something that scores bodies."""
 
-    def __str__(self) -> str:  # KeyError would quote the message
-        return str(self.args[0]) if self.args else ""
+
+class UnknownPluginError(ConfigError):
+    """No designer, environment or controller is registered under the requested name."""
 
 
 class PluginError(GdabenchError):

@@ -1,8 +1,10 @@
 """Evaluating one body, with every failure turned into a recorded outcome.
 
 This is the function executors run, in the driver or in worker processes.  An environment
-that raises or returns a non-finite reward yields an ``error`` outcome with its message; the
-run goes on.  Environments and controllers are built once per process and reused.
+that raises (``sys.exit`` included) or returns a non-finite reward yields an ``error`` outcome
+with its message; the run goes on.  Hangs and dying worker processes are the executors' job
+(``timeout`` and ``error`` outcomes).  Environments and controllers are built once per process
+and reused.
 """
 
 from __future__ import annotations
@@ -11,31 +13,15 @@ import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Mapping, Sequence
 
 from .body import Body
 from .environment import Environment, Evaluation
+from .specs import Factory
 
 OK, INVALID, DUPLICATE, ERROR, TIMEOUT = "ok", "invalid", "duplicate", "error", "timeout"
 #: statuses that used an evaluation (and so count against the budget)
 COUNTED = (OK, ERROR, TIMEOUT)
-
-
-@dataclass(frozen=True)
-class Factory:
-    """A picklable recipe for an environment or controller: factory plus keyword arguments."""
-
-    factory: str | Callable[..., Any]
-    params: tuple[tuple[str, Any], ...] = ()
-
-    def key(self) -> str:
-        return repr((self.factory, self.params))
-
-    def build(self) -> Any:
-        from .specs import Spec  # local: keep this module import-light for workers
-
-        fn = Spec("factory", self.factory, "").load()
-        return fn(**dict(self.params))
 
 
 @dataclass(frozen=True)
@@ -54,6 +40,8 @@ class EvalOutcome:
     message: str = ""
     seconds: float = 0.0
     info: Mapping[str, Any] = field(default_factory=dict)
+    #: the reward was taken from the evaluation cache instead of being computed
+    cached: bool = False
 
 
 _built: dict[str, Any] = {}
@@ -66,6 +54,20 @@ def _instance(recipe: Factory, prebuilt: Mapping[str, Any] | None = None) -> Any
     if key not in _built:
         _built[key] = recipe.build()
     return _built[key]
+
+
+def prepare(recipes: Sequence[Factory]) -> None:
+    """Build and keep the environment and controller in this process before the first body.
+
+    Worker processes call this at start-up so that building (importing torch, loading a
+    simulator) is not charged to the first evaluation's time or timeout.  A recipe that fails
+    to build is skipped here: :func:`evaluate` reports the failure for every body.
+    """
+    for recipe in recipes:
+        try:
+            _instance(recipe)
+        except Exception:  # noqa: BLE001
+            pass
 
 
 def one_line(exc: BaseException) -> str:
@@ -82,7 +84,7 @@ def evaluate(task: EvalTask, prebuilt: Mapping[str, Any] | None = None) -> EvalO
         result = env.evaluate(task.body, seed=task.seed, controller=controller, workdir=task.workdir)
         ev = result if isinstance(result, Evaluation) else Evaluation(float(result))
         reward = float(ev.reward)
-    except Exception as exc:  # noqa: BLE001 - a failing evaluation is data, not a crash
+    except (Exception, SystemExit) as exc:  # noqa: BLE001 - a failing evaluation is data, not a crash
         return EvalOutcome(math.nan, ERROR, one_line(exc), time.perf_counter() - start)
     seconds = time.perf_counter() - start
     if not math.isfinite(reward):

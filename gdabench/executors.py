@@ -1,21 +1,28 @@
 """Executors: where the bodies of one generation are evaluated.
 
-Results always come back in task order, so a run's table does not depend on the executor or on
-which evaluation finishes first.  Designers stay in the driver process.
+* ``serial``: one body after the other in the driver process (no timeout: a hang hangs the run,
+  a crash ends it); with a timeout, one body after the other in one worker process;
+* ``process``: a supervised pool of local worker processes (:mod:`gdabench.pool`), the
+  default for more than one worker;
+* ``ray``: Ray tasks on a local Ray instance or an existing cluster (:mod:`gdabench.ray_executor`).
+
+Results always come back in task order and an evaluation depends only on its task (body,
+evaluation seed, environment and controller recipes), so a run's table does not depend on the
+executor, the number of workers, or which evaluation finishes first.  Designers stay in the
+driver process.
 """
 
 from __future__ import annotations
 
 import abc
-import multiprocessing
-from concurrent.futures import ProcessPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
+import os
 from typing import Any, Mapping, Sequence
 
 from .errors import ConfigError
-from .evaluation import ERROR, EvalOutcome, EvalTask, evaluate
+from .evaluation import EvalOutcome, EvalTask, evaluate
+from .specs import Factory
 
-EXECUTORS = ("serial", "process")
+EXECUTORS = ("serial", "process", "ray")
 
 
 class Executor(abc.ABC):
@@ -48,44 +55,70 @@ class SerialExecutor(Executor):
 
 
 class ProcessExecutor(Executor):
-    """A pool of local worker processes (spawned, so torch and threads are safe)."""
+    """Local worker processes; a dead or hung worker costs only its own evaluation."""
 
     name = "process"
 
-    def __init__(self, workers: int):
-        self.workers = workers
-        self._pool: ProcessPoolExecutor | None = None
+    def __init__(self, workers: int, *, timeout: float | None = None, warm: Sequence[Factory] = ()):
+        from .pool import ProcessBackend, WorkerPool
 
-    def _get_pool(self) -> ProcessPoolExecutor:
-        if self._pool is None:
-            self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"))
-        return self._pool
+        self.workers = workers
+        self._pool = WorkerPool(ProcessBackend(warm), workers, timeout=timeout)
 
     def map(self, tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
-        futures = [self._get_pool().submit(evaluate, task) for task in tasks]
-        outcomes = []
-        for future in futures:
-            try:
-                outcomes.append(future.result())
-            except BrokenProcessPool:
-                outcomes.append(EvalOutcome(float("nan"), ERROR, "worker process died"))
-        if any(o.message == "worker process died" for o in outcomes):
-            self.close()  # a fresh pool replaces the broken one on the next generation
-        return outcomes
+        return self._pool.map(tasks)
 
     def close(self) -> None:
-        if self._pool is not None:
-            self._pool.shutdown(wait=True, cancel_futures=True)
-            self._pool = None
+        self._pool.close()
 
 
-def make_executor(kind: str | None, workers: int, prebuilt: Mapping[str, Any] | None = None) -> Executor:
-    """``kind=None`` picks serial for one worker and processes otherwise."""
-    if workers < 1:
+def resolve_workers(kind: str | None, workers: int | None) -> tuple[str, int | None]:
+    """The executor and worker count a run uses: ``kind=None`` is serial for one worker (or
+    none given) and processes otherwise; ``process`` without a count uses every CPU; ``ray``
+    without a count runs as many tasks at once as the Ray cluster has CPUs (``None``)."""
+    if workers is not None and workers < 1:
         raise ConfigError(f"workers must be at least 1, got {workers}")
-    kind = kind or ("serial" if workers == 1 else "process")
+    kind = kind or ("serial" if (workers or 1) == 1 else "process")
+    if kind not in EXECUTORS:
+        raise ConfigError(f"unknown executor {kind!r}; known executors: {', '.join(EXECUTORS)}")
     if kind == "serial":
-        return SerialExecutor(prebuilt)
+        if workers not in (None, 1):
+            raise ConfigError(f"the serial executor runs one evaluation at a time; use --executor process for {workers} workers")
+        return kind, 1
     if kind == "process":
-        return ProcessExecutor(workers)
-    raise ConfigError(f"unknown executor {kind!r}; known executors: {', '.join(EXECUTORS)}")
+        return kind, workers or os.cpu_count() or 1
+    return kind, workers
+
+
+def make_executor(
+    kind: str | None,
+    workers: int | None = None,
+    prebuilt: Mapping[str, Any] | None = None,
+    *,
+    timeout: float | None = None,
+    warm: Sequence[Factory] = (),
+    ray_address: str | None = None,
+) -> Executor:
+    """Build an executor (see :func:`resolve_workers` for the defaults).
+
+    ``prebuilt`` maps recipe keys to the driver's own environment and controller (reused by
+    the serial executor); ``warm`` are the recipes worker processes build before their first
+    body; ``timeout`` limits each evaluation in seconds (the serial executor then evaluates in
+    one worker process, since a running Python function cannot be stopped from outside).
+    """
+    kind, count = resolve_workers(kind, workers)
+    if timeout is not None and not timeout > 0:
+        raise ConfigError(f"timeout must be a positive number of seconds, got {timeout}")
+    if ray_address and kind != "ray":
+        raise ConfigError("--ray-address needs --executor ray")
+    if kind == "serial":
+        if timeout is None:
+            return SerialExecutor(prebuilt)
+        executor = ProcessExecutor(1, timeout=timeout, warm=warm)
+        executor.name = "serial"
+        return executor
+    if kind == "process":
+        return ProcessExecutor(count or 1, timeout=timeout, warm=warm)
+    from .ray_executor import RayExecutor
+
+    return RayExecutor(count, address=ray_address, timeout=timeout, warm=warm)

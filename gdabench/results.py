@@ -3,12 +3,18 @@
 ::
 
     <run>/run.json              configuration, command line, versions, status
-    <run>/evaluations.parquet   one row per proposed body (see COLUMNS), rewritten every generation
+    <run>/evaluations.parquet   one row per proposed body (see COLUMNS) of every finished
+                                (designer, seed) run
+    <run>/pending/<designer>-seed<k>/gen-<g>.parquet
+                                rows of a (designer, seed) run still in progress, one file per
+                                generation; merged into evaluations.parquet when that run ends
     <run>/summary.csv           per designer: best reward, evaluations to the optimum, wall time
     <run>/checkpoints/          pickled designer state after each generation (for --resume)
 
-Every file is replaced atomically (write to a temporary file, then rename), so a run killed at
-any instant leaves readable files behind, missing at most the generation in flight.
+Every file is written atomically (temporary file, then rename) and generations are appended,
+never rewritten, so a run killed at any instant leaves readable files behind, missing at most
+the generation in flight.  :meth:`RunDirectory.load_evaluations` returns finished and pending
+rows together.
 """
 
 from __future__ import annotations
@@ -19,12 +25,13 @@ import os
 import pickle
 import platform
 import re
+import shutil
 import sys
 import tempfile
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
-from typing import Any, Iterable, Mapping
+from typing import Any, Mapping
 
 import pandas as pd
 
@@ -35,6 +42,7 @@ RUN_JSON = "run.json"
 EVALUATIONS = "evaluations.parquet"
 SUMMARY = "summary.csv"
 CHECKPOINTS = "checkpoints"
+PENDING = "pending"
 
 #: columns of evaluations.parquet, in order; designers and environments may add their own after these
 COLUMNS: dict[str, str] = {
@@ -58,6 +66,7 @@ COLUMNS: dict[str, str] = {
     "reward": "reward (NaN for invalid bodies and failed evaluations)",
     "status": "ok | invalid | duplicate | error | timeout",
     "message": "why a body was invalid or its evaluation failed",
+    "cached": "reward taken from the evaluation cache (--cache) instead of computed in this run",
     "n_evals": "evaluations used so far in this run, this row included",
     "best_so_far": "best reward so far in this run",
     "eval_seconds": "time spent evaluating this body",
@@ -65,6 +74,13 @@ COLUMNS: dict[str, str] = {
     "elapsed_seconds": "wall time of this run when its generation finished",
     "timestamp": "UTC time the generation was written",
 }
+
+
+#: columns without which a table cannot be merged, resumed or reported
+REQUIRED_COLUMNS = (
+    "designer", "env", "controller", "seed", "generation", "index", "body", "body_hash",
+    "reward", "status", "n_evals", "best_so_far", "elapsed_seconds",
+)  # fmt: skip
 
 
 def utc_now() -> str:
@@ -77,6 +93,7 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
+        os.chmod(tmp, 0o644)  # mkstemp creates private files; results are meant to be shared
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -102,11 +119,10 @@ def platform_info() -> dict[str, Any]:
 
 @dataclass
 class Checkpoint:
-    """Designer state after a generation; ``designer`` is None once the run is complete."""
+    """Designer state after a generation was told, and the generation to run next."""
 
     designer: Any
     next_generation: int
-    complete: bool = False
 
 
 class RunDirectory:
@@ -156,24 +172,87 @@ class RunDirectory:
     def evaluations_path(self) -> Path:
         return self.path / EVALUATIONS
 
-    def load_evaluations(self) -> pd.DataFrame:
-        """The evaluations table (empty, with the core columns, if nothing was written yet)."""
-        if not self.evaluations_path.exists():
-            return pd.DataFrame({c: pd.Series(dtype=object) for c in COLUMNS})
-        try:
-            return pd.read_parquet(self.evaluations_path)
-        except Exception as exc:  # noqa: BLE001 - pyarrow raises several types for corrupt files
-            raise RunDirectoryError(f"cannot read {self.evaluations_path}: {type(exc).__name__}: {exc}") from None
+    def trial_name(self, label: str, seed: int) -> str:
+        return f"{re.sub(r'[^A-Za-z0-9_.=-]+', '_', label)}-seed{seed}"
 
-    def write_evaluations(self, frame: pd.DataFrame) -> None:
-        tmp = self.evaluations_path.with_name(f".{EVALUATIONS}.tmp")
+    def _read(self, path: Path) -> pd.DataFrame:
+        try:
+            frame = pd.read_parquet(path)
+        except Exception as exc:  # noqa: BLE001 - pyarrow raises several types for corrupt files
+            raise RunDirectoryError(f"cannot read {path}: {type(exc).__name__}: {exc}") from None
+        missing = [c for c in REQUIRED_COLUMNS if c not in frame.columns]
+        if missing:
+            raise RunDirectoryError(f"{path} lacks the column(s) {', '.join(missing)}: not a gdabench evaluations table")
+        return frame
+
+    def _finished(self) -> pd.DataFrame | None:
+        return self._read(self.evaluations_path) if self.evaluations_path.exists() else None
+
+    def pending_rows(self, label: str, seed: int, before_generation: int | None = None) -> pd.DataFrame | None:
+        """Rows of an unfinished (designer, seed) run; generation files from ``before_generation`` on are deleted."""
+        folder = self.path / PENDING / self.trial_name(label, seed)
+        frames = []
+        for file in sorted(folder.glob("gen-*.parquet")):
+            if before_generation is not None and int(file.stem[4:]) >= before_generation:
+                file.unlink()
+            else:
+                frames.append(self._read(file))
+        return pd.concat(frames, ignore_index=True) if frames else None
+
+    def load_evaluations(self) -> pd.DataFrame:
+        """All rows: finished (designer, seed) runs, then those still pending."""
+        finished = self._finished()
+        frames = [] if finished is None else [finished]
+        done = set() if finished is None else set(zip(finished["designer"], finished["seed"]))
+        for folder in sorted((self.path / PENDING).glob("*")):
+            files = sorted(folder.glob("gen-*.parquet"))
+            if not files:
+                continue
+            first = self._read(files[0])
+            if (first["designer"].iloc[0], first["seed"].iloc[0]) in done:
+                continue  # merged already; the folder outlived a kill during clean-up
+            frames += [first, *(self._read(f) for f in files[1:])]
+        if not frames:
+            return pd.DataFrame({c: pd.Series(dtype=object) for c in COLUMNS})
+        return _core_first(pd.concat(frames, ignore_index=True))
+
+    def append_generation(self, label: str, seed: int, generation: int, rows: list[Mapping[str, Any]]) -> None:
+        """Write one generation's rows of an unfinished (designer, seed) run."""
+        frame = _core_first(pd.DataFrame.from_records(rows))
+        path = self.path / PENDING / self.trial_name(label, seed) / f"gen-{generation:06d}.parquet"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.tmp")
         frame.to_parquet(tmp, index=False)
-        os.replace(tmp, self.evaluations_path)
+        os.replace(tmp, path)
+
+    def is_finished(self, label: str, seed: int) -> bool:
+        """True once the (designer, seed) run's rows were merged into evaluations.parquet."""
+        if not self.evaluations_path.exists():
+            return False
+        keys = pd.read_parquet(self.evaluations_path, columns=["designer", "seed"]).drop_duplicates()
+        return bool(((keys["designer"] == label) & (keys["seed"] == seed)).any())
+
+    def finish_trial(self, label: str, seed: int) -> None:
+        """Merge a finished (designer, seed) run's pending rows into evaluations.parquet.
+
+        Its checkpoint is deleted afterwards: the merged rows are what marks the run finished.
+        """
+        rows = self.pending_rows(label, seed)
+        if rows is not None:
+            finished = self._finished()
+            merged = rows if finished is None else pd.concat([finished, rows], ignore_index=True)
+            tmp = self.evaluations_path.with_name(f".{EVALUATIONS}.tmp")
+            _core_first(merged).to_parquet(tmp, index=False)
+            os.replace(tmp, self.evaluations_path)
+        shutil.rmtree(self.path / PENDING / self.trial_name(label, seed), ignore_errors=True)
+        self.checkpoint_path(label, seed).unlink(missing_ok=True)
+        for folder in (self.path / PENDING, self.path / CHECKPOINTS):
+            if folder.is_dir() and not any(folder.iterdir()):
+                folder.rmdir()
 
     # -- checkpoints ---------------------------------------------------------------------------
     def checkpoint_path(self, label: str, seed: int) -> Path:
-        safe = re.sub(r"[^A-Za-z0-9_.=-]+", "_", label)
-        return self.path / CHECKPOINTS / f"{safe}-seed{seed}.pkl"
+        return self.path / CHECKPOINTS / f"{self.trial_name(label, seed)}.pkl"
 
     def save_checkpoint(self, label: str, seed: int, checkpoint: Checkpoint) -> None:
         atomic_write_bytes(self.checkpoint_path(label, seed), pickle.dumps(checkpoint))
@@ -188,28 +267,7 @@ class RunDirectory:
             raise RunDirectoryError(f"cannot restore checkpoint {path}: {type(exc).__name__}: {exc}") from None
 
 
-class TableWriter:
-    """Accumulates result rows and rewrites ``evaluations.parquet`` after each generation."""
-
-    def __init__(self, run: RunDirectory, existing: pd.DataFrame | None = None):
-        self.run = run
-        self._frames: list[pd.DataFrame] = [] if existing is None or existing.empty else [existing]
-
-    def frame(self) -> pd.DataFrame:
-        if not self._frames:
-            return pd.DataFrame({c: pd.Series(dtype=object) for c in COLUMNS})
-        if len(self._frames) > 1:
-            self._frames = [pd.concat(self._frames, ignore_index=True)]
-        return self._frames[0]
-
-    def append(self, rows: Iterable[Mapping[str, Any]]) -> None:
-        rows = list(rows)
-        if rows:
-            self._frames.append(pd.DataFrame.from_records(rows))
-            self.run.write_evaluations(self.frame())
-
-    def drop(self, mask_fn) -> None:
-        """Remove rows selected by ``mask_fn(frame) -> bool Series`` (used when resuming)."""
-        frame = self.frame()
-        if not frame.empty:
-            self._frames = [frame.loc[~mask_fn(frame)].reset_index(drop=True)]
+def _core_first(frame: pd.DataFrame) -> pd.DataFrame:
+    """Core columns in their documented order, then designer/environment extras."""
+    core = [c for c in COLUMNS if c in frame.columns]
+    return frame[core + [c for c in frame.columns if c not in COLUMNS]]

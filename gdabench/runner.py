@@ -4,8 +4,9 @@ The runner owns what designers must not: the evaluation budget (counted in evalu
 unique valid bodies, as Evolution Gym counts them), de-duplication (a body already scored in
 this run is not evaluated again; its row says ``duplicate`` and the designer is told the known
 reward), validity (invalid bodies are recorded, never scored, and do not use budget),
-failures (recorded as ``error`` rows that do use budget) and writing results after every
-generation together with a checkpoint, so that a killed run resumes where it stopped.
+failures (recorded as ``error`` or ``timeout`` rows that do use budget), the optional
+evaluation cache, and writing results after every generation together with a checkpoint, so
+that a killed run resumes where it stopped.
 """
 
 from __future__ import annotations
@@ -26,11 +27,12 @@ from .body import Body, as_body
 from .config import Experiment, PluginChoice
 from .designer import Designer
 from .environment import Environment
-from .errors import DesignerError, GdabenchError, RunDirectoryError
-from .evaluation import COUNTED, DUPLICATE, INVALID, OK, EvalTask, Factory, one_line
-from .executors import make_executor
+from .cache import EvaluationCache, recipe_identity
+from .errors import ConfigError, DesignerError, GdabenchError, RunDirectoryError
+from .evaluation import COUNTED, DUPLICATE, INVALID, OK, EvalOutcome, EvalTask, one_line
+from .executors import make_executor, resolve_workers
 from .plugins import Registry, registry
-from .results import COLUMNS, Checkpoint, RunDirectory, TableWriter, platform_info, utc_now, versions
+from .results import COLUMNS, Checkpoint, RunDirectory, platform_info, utc_now, versions
 from .summary import summarize
 
 #: a designer that proposes nothing new for this many generations in a row is stopped
@@ -52,7 +54,7 @@ class GenerationReport:
 
 def build_designer(reg: Registry, experiment: Experiment, choice: PluginChoice, seed: int) -> Designer:
     """Instantiate a designer for one seed of ``experiment``."""
-    designer = reg.get("designer", choice.name).spec.load()(
+    designer = reg.get("designer", choice.name).spec.create(
         shape=tuple(experiment.shape),
         population=experiment.population,
         budget=experiment.budget,
@@ -72,10 +74,6 @@ def _shape_text(shape: Sequence[int]) -> str:
     return f"{shape[0]}x{shape[1]}"
 
 
-def _recipe(spec_factory: Any, params: Mapping[str, Any]) -> Factory:
-    return Factory(spec_factory, tuple(sorted(params.items())))
-
-
 class Runner:
     """Runs every (designer, seed) of an :class:`Experiment` into one run directory."""
 
@@ -83,8 +81,11 @@ class Runner:
         self,
         experiment: Experiment,
         *,
-        workers: int = 1,
+        workers: int | None = None,
         executor: str | None = None,
+        timeout: float | None = None,
+        ray_address: str | None = None,
+        cache: str | Path | None = None,
         on_generation: Callable[[GenerationReport], None] | None = None,
         reg: Registry | None = None,
     ):
@@ -93,64 +94,83 @@ class Runner:
         self.on_generation = on_generation or (lambda report: None)
         exp = experiment
         env_spec = self.reg.get("environment", exp.env.name).spec
-        self.env_recipe = _recipe(env_spec.factory, {"shape": tuple(exp.shape), **exp.env.params})
+        self.env_recipe = env_spec.recipe({"shape": tuple(exp.shape), **exp.env.params})
         self.env: Environment = self.env_recipe.build()
         self.ctrl_recipe = None
         prebuilt: dict[str, Any] = {self.env_recipe.key(): self.env}
         if exp.controller is not None:
             ctrl_spec = self.reg.get("controller", exp.controller.name).spec
-            self.ctrl_recipe = _recipe(ctrl_spec.factory, exp.controller.params)
+            self.ctrl_recipe = ctrl_spec.recipe(exp.controller.params)
             prebuilt[self.ctrl_recipe.key()] = self.ctrl_recipe.build()
-        self.executor = make_executor(executor, workers, prebuilt)
         for choice in exp.designers:  # constructor errors (bad parameters) surface before any run starts
             build_designer(self.reg, exp, choice, exp.seeds[0])
+        self.cache = self._open_cache(cache) if cache is not None and self.env.deterministic else None
+        kind, count = resolve_workers(executor, workers)
+        self.execution = {"executor": kind, "workers": count, "timeout": timeout, "ray_address": ray_address, "cache": str(cache) if self.cache else None}
+        warm = [r for r in (self.env_recipe, self.ctrl_recipe) if r is not None]
+        self.executor = make_executor(kind, count, prebuilt, timeout=timeout, warm=warm, ray_address=ray_address)
+
+    def _open_cache(self, root: str | Path) -> EvaluationCache:
+        exp = self.experiment
+
+        def package(kind: str, name: str) -> tuple[str, str]:
+            item = self.reg.get(kind, name)  # type: ignore[arg-type]
+            return item.distribution, item.version
+
+        try:
+            context = {
+                "env": exp.env.name,
+                "env_recipe": recipe_identity(self.env_recipe, package("environment", exp.env.name)),
+                "controller": exp.controller.name if exp.controller else None,
+                "controller_recipe": recipe_identity(self.ctrl_recipe, package("controller", exp.controller.name) if exp.controller else None),
+            }
+        except TypeError as exc:
+            raise ConfigError(f"cannot use the evaluation cache: a parameter is not a plain value ({exc})") from None
+        return EvaluationCache(root, context)
 
     # -- the loop ----------------------------------------------------------------------------------
     def run_all(self, run: RunDirectory) -> pd.DataFrame:
         """Run every (seed, designer) pair not yet complete in ``run``; returns the full table."""
         self.run, self.run_id = run, run.meta["run_id"]
-        self.table = TableWriter(run, run.load_evaluations())
         try:
             for repetition, seed in enumerate(self.experiment.seeds):
                 for choice in self.experiment.designers:
                     self.run_trial(choice, seed, repetition)
         finally:
             self.executor.close()
-        return self.table.frame()
+        return run.load_evaluations()
 
     def run_trial(self, choice: PluginChoice, seed: int, repetition: int) -> None:
-        exp, label = self.experiment, choice.label or choice.name
-        checkpoint = self.run.load_checkpoint(label, seed)
-        if checkpoint is not None and checkpoint.complete:
+        exp, label = self.experiment, choice.label
+        if self.run.is_finished(label, seed):
             return
+        checkpoint = self.run.load_checkpoint(label, seed)
         start_gen = checkpoint.next_generation if checkpoint else 0
-        mine = lambda f: (f["designer"] == label) & (f["seed"] == seed)  # noqa: E731
-        self.table.drop(lambda f: mine(f) & (f["generation"] >= start_gen))
+        done = self.run.pending_rows(label, seed, before_generation=start_gen)
         designer = checkpoint.designer if checkpoint else build_designer(self.reg, exp, choice, seed)
-
-        done = self.table.frame()
-        done = done[mine(done)] if len(done) else done
-        counted = done[done["status"].isin(COUNTED)] if len(done) else done
-        seen: dict[str, float] = dict(zip(counted["body_hash"], counted["reward"])) if len(done) else {}
-        n_evals = len(counted)
-        best = float(done["best_so_far"].iloc[-1]) if len(done) else math.nan
-        clock0 = time.perf_counter() - (float(done["elapsed_seconds"].iloc[-1]) if len(done) else 0.0)
+        seen: dict[str, float] = {}
+        n_evals, best, clock0 = 0, math.nan, time.perf_counter()
+        if done is not None:
+            counted = done[done["status"].isin(COUNTED)]
+            seen = dict(zip(counted["body_hash"], counted["reward"]))
+            n_evals, best = len(counted), float(done["best_so_far"].iloc[-1])
+            clock0 -= float(done["elapsed_seconds"].iloc[-1])
         constant = {
             "run_id": self.run_id,
             "designer": label,
             "designer_name": choice.name,
-            "env": exp.env.label or exp.env.name,
-            "controller": (exp.controller.label or exp.controller.name) if exp.controller else "",
-            "designer_params": _json(choice.params),
-            "env_params": _json(exp.env.params),
-            "controller_params": _json(exp.controller.params) if exp.controller else "{}",
+            "env": exp.env.label,
+            "controller": exp.controller.label if exp.controller else "",
+            "designer_params": _json({**self.reg.get("designer", choice.name).spec.defaults, **choice.params}),
+            "env_params": _json({k: v for k, v in self.env_recipe.params if k != "shape"}),
+            "controller_params": _json(dict(self.ctrl_recipe.params)) if self.ctrl_recipe else "{}",
             "shape": _shape_text(exp.shape),
             "population": exp.population,
             "budget": exp.budget,
             "seed": seed,
             "repetition": repetition,
         }
-        workdir_root = self.run.path / "artifacts" / f"{self.run.checkpoint_path(label, seed).stem}"
+        workdir_root = self.run.path / "artifacts" / self.run.trial_name(label, seed)
         generation, stale, tell_seconds = start_gen, 0, 0.0
         while n_evals < exp.budget:
             t0 = time.perf_counter()
@@ -178,10 +198,12 @@ class Runner:
                 rows.append(row)
             truncated = len(rows) < len(bodies)
 
-            outcomes = self.executor.map(tasks)
+            outcomes = self._evaluate(tasks)
             for row_i, task, outcome in zip(task_rows, tasks, outcomes):
                 seen[task.body.hash] = outcome.reward
-                rows[row_i].update(reward=outcome.reward, status=outcome.status, message=outcome.message, eval_seconds=outcome.seconds)
+                rows[row_i].update(
+                    reward=outcome.reward, status=outcome.status, message=outcome.message, cached=outcome.cached, eval_seconds=outcome.seconds
+                )
                 rows[row_i].update(self._check_extra(outcome.info, "environment"))
             elapsed = time.perf_counter() - clock0
             stamp = utc_now()
@@ -195,8 +217,9 @@ class Runner:
                     if row["status"] == OK and not (row["reward"] <= best):  # also true while best is nan
                         best = row["reward"]
                 row.setdefault("eval_seconds", 0.0)
+                row.setdefault("cached", False)
                 row.update(n_evals=n_evals, best_so_far=best, design_seconds=design_seconds, elapsed_seconds=elapsed, timestamp=stamp)
-            self.table.append(rows)
+            self.run.append_generation(label, seed, generation, rows)
             self.on_generation(GenerationReport(label, seed, generation, n_evals, exp.budget, len(tasks), best))
 
             if n_evals >= exp.budget or truncated:
@@ -215,7 +238,22 @@ class Runner:
             tell_seconds = time.perf_counter() - t0
             generation += 1
             self.run.save_checkpoint(label, seed, Checkpoint(designer, generation))
-        self.run.save_checkpoint(label, seed, Checkpoint(None, generation + 1, complete=True))
+        self.run.finish_trial(label, seed)
+
+    def _evaluate(self, tasks: list[EvalTask]) -> list[EvalOutcome]:
+        """Outcomes in task order: cached rewards where the cache has them, the executor for the rest."""
+        if self.cache is None:
+            return self.executor.map(tasks)
+        hits = [self.cache.get(task) for task in tasks]
+        misses = [task for task, hit in zip(tasks, hits) if hit is None]
+        fresh = iter(self.executor.map(misses))
+        outcomes = []
+        for task, hit in zip(tasks, hits):
+            if hit is None:
+                hit = next(fresh)
+                self.cache.put(task, hit)
+            outcomes.append(hit)
+        return outcomes
 
     def _ask(self, designer: Designer, label: str, seed: int) -> tuple[list[Body], list[Mapping[str, Any]]]:
         try:
@@ -243,7 +281,7 @@ class Runner:
         return extra
 
 
-def _new_meta(experiment: Experiment, reg: Registry, command: Sequence[str] | None, env: Environment, workers: int, executor: str | None) -> dict[str, Any]:
+def _new_meta(experiment: Experiment, reg: Registry, command: Sequence[str] | None, env: Environment, execution: Mapping[str, Any]) -> dict[str, Any]:
     stamp = time.strftime("%Y%m%d-%H%M%S")
     return {
         "run_id": f"{stamp}-{uuid.uuid4().hex[:6]}",
@@ -252,7 +290,7 @@ def _new_meta(experiment: Experiment, reg: Registry, command: Sequence[str] | No
         "command": list(command if command is not None else sys.argv),
         "config": experiment.to_json(),
         "env_optimum": env.optimum,
-        "execution": {"workers": workers, "executor": executor},
+        "execution": dict(execution),
         "versions": versions(reg.distributions()),
         "platform": platform_info(),
     }
@@ -268,8 +306,11 @@ def compare(
     out: str | Path | None = None,
     *,
     resume: bool = False,
-    workers: int = 1,
+    workers: int | None = None,
     executor: str | None = None,
+    timeout: float | None = None,
+    ray_address: str | None = None,
+    cache: str | Path | None = None,
     on_generation: Callable[[GenerationReport], None] | None = None,
     command: Sequence[str] | None = None,
     reg: Registry | None = None,
@@ -278,6 +319,8 @@ def compare(
 
     Everything is checked before the directory is created.  On failure the directory's
     ``run.json`` says ``failed`` (or ``interrupted``) with the error, and the run can be resumed.
+    Execution options (executor, workers, Ray address, cache) may differ on resume; the timeout
+    defaults to the one the run was started with.
     """
     reg = reg or registry()
     if resume:
@@ -289,13 +332,22 @@ def compare(
             return run
         experiment = Experiment.from_json(meta["config"])
         experiment.validate(reg)
-        runner = Runner(experiment, workers=workers, executor=executor, on_generation=on_generation, reg=reg)
-        run.update_meta(status="running", resumed=[*meta.get("resumed", []), utc_now()], error=None)
+        if timeout is None:
+            timeout = (meta.get("execution") or {}).get("timeout")
     else:
         experiment.validate(reg)
-        runner = Runner(experiment, workers=workers, executor=executor, on_generation=on_generation, reg=reg)
-        meta = _new_meta(experiment, reg, command, runner.env, workers, executor)
-        run = RunDirectory.create(out or default_out_dir(experiment), meta)
+    execution = dict(workers=workers, executor=executor, timeout=timeout, ray_address=ray_address, cache=cache)
+    runner = Runner(experiment, **execution, on_generation=on_generation, reg=reg)
+    if resume:
+        resumed = {"at": utc_now(), **runner.execution}
+        run.update_meta(status="running", resumed=[*meta.get("resumed", []), resumed], error=None)
+    else:
+        meta = _new_meta(experiment, reg, command, runner.env, runner.execution)
+        try:
+            run = RunDirectory.create(out or default_out_dir(experiment), meta)
+        except BaseException:
+            runner.executor.close()
+            raise
     try:
         frame = runner.run_all(run)
     except KeyboardInterrupt:

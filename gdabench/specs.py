@@ -14,6 +14,37 @@ from typing import Any, Callable, ClassVar, Mapping
 from .errors import PluginError
 
 
+def _load(factory: str | Callable[..., Any], kind: str, name: str) -> Callable[..., Any]:
+    if not isinstance(factory, str):
+        return factory
+    module_name, _, attr = factory.partition(":")
+    try:
+        obj: Any = importlib.import_module(module_name)
+        for part in attr.split("."):
+            obj = getattr(obj, part)
+    except Exception as exc:  # noqa: BLE001 - any import failure is the plugin's, reported in one line
+        raise PluginError(f"{kind} {name!r}: cannot load {factory!r}: {type(exc).__name__}: {exc}") from exc
+    return obj
+
+
+@dataclass(frozen=True)
+class Factory:
+    """A picklable recipe for an environment or controller: factory plus keyword arguments."""
+
+    factory: str | Callable[..., Any]
+    params: tuple[tuple[str, Any], ...] = ()
+
+    @classmethod
+    def of(cls, factory: str | Callable[..., Any], params: Mapping[str, Any]) -> Factory:
+        return cls(factory, tuple(sorted(params.items())))
+
+    def key(self) -> str:
+        return repr((self.factory, self.params))
+
+    def build(self) -> Any:
+        return _load(self.factory, "factory", "factory")(**dict(self.params))
+
+
 @dataclass(frozen=True)
 class Spec:
     name: str
@@ -31,16 +62,15 @@ class Spec:
 
     def load(self) -> Callable[..., Any]:
         """Import and return the factory."""
-        if not isinstance(self.factory, str):
-            return self.factory
-        module_name, _, attr = self.factory.partition(":")
-        try:
-            obj: Any = importlib.import_module(module_name)
-            for part in attr.split("."):
-                obj = getattr(obj, part)
-        except Exception as exc:  # noqa: BLE001 - any import failure is the plugin's, reported in one line
-            raise PluginError(f"{self.kind} {self.name!r}: cannot load {self.factory!r}: {type(exc).__name__}: {exc}") from exc
-        return obj
+        return _load(self.factory, self.kind, self.name)
+
+    def recipe(self, params: Mapping[str, Any]) -> Factory:
+        """A picklable recipe: the factory with the spec's defaults overridden by ``params``."""
+        return Factory.of(self.factory, {**self.defaults, **params})
+
+    def create(self, **params: Any) -> Any:
+        """Build the object (defaults overridden by ``params``)."""
+        return self.recipe(params).build()
 
 
 @dataclass(frozen=True)

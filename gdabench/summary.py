@@ -1,72 +1,96 @@
 """Per-designer summary of a run, computed from the evaluations table alone.
 
-One row per (designer, env, controller): how good the best body is over seeds (median and
-spread), how many seeds reached the environment's optimum and after how many evaluations, and
-how long a run took.  Runs that never reach the optimum are censored: they count as "not
-reached" in the median instead of being dropped, so the median is not flattered.
+One row per (designer, env, controller): how good the best body is over seeds (median with a
+bootstrap confidence interval, and the spread), how many seeds reached a threshold (the
+environment's optimum unless another is chosen) and after how many evaluations, the mean
+best-so-far reward (area under the best-so-far curve per evaluation), and how long a run took.
+Runs that never reach the threshold are censored: they count as "not reached" in the median and
+its interval instead of being dropped, so the median is not flattered (see
+:mod:`gdabench.report.stats`).
 """
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
 import pandas as pd
 
 from .evaluation import COUNTED, OK
+from .report.stats import (
+    CONFIDENCE,
+    RESAMPLES,
+    best_so_far_curve,
+    bootstrap_ci,
+    censored,
+    censored_median,
+    first_reach,
+    mean_best_so_far,
+)
 
 GROUP = ["designer", "env", "controller"]
+PER_RUN_COLUMNS = ["best_reward", "evaluations", "evals_to_threshold", "mean_best_so_far", "wall_seconds"]
 
 
-def per_run(evaluations: pd.DataFrame, optimum: float | None = None, tol: float = 1e-9) -> pd.DataFrame:
-    """One row per (designer, env, controller, seed): best reward, evaluations, time to optimum."""
+def per_run(evaluations: pd.DataFrame, threshold: float | None = None) -> pd.DataFrame:
+    """One row per (designer, env, controller, seed): best reward, evaluations, time to threshold."""
     keys = GROUP + ["seed"]
     rows = []
     for key, g in evaluations.groupby(keys, sort=False, dropna=False):
         ok = g[g["status"] == OK]
-        best = float(ok["reward"].max()) if len(ok) else math.nan
-        to_opt = math.nan
-        if optimum is not None and len(ok):
-            hit = ok[ok["reward"] >= optimum - tol]
-            if len(hit):
-                to_opt = float(hit["n_evals"].min())
+        evaluations_used = int(g["status"].isin(COUNTED).sum())
         rows.append(
             {
                 **dict(zip(keys, key)),
-                "best_reward": best,
-                "evaluations": int(g["status"].isin(COUNTED).sum()),
-                "evals_to_optimum": to_opt,
+                "best_reward": float(ok["reward"].max()) if len(ok) else math.nan,
+                "evaluations": evaluations_used,
+                "evals_to_threshold": first_reach(g, threshold) if threshold is not None else math.nan,
+                "mean_best_so_far": mean_best_so_far(best_so_far_curve(g, evaluations_used)),
                 "wall_seconds": float(g["elapsed_seconds"].max()),
             }
         )
-    return pd.DataFrame(rows, columns=keys + ["best_reward", "evaluations", "evals_to_optimum", "wall_seconds"])
+    return pd.DataFrame(rows, columns=keys + PER_RUN_COLUMNS)
 
 
-def _censored_median(values: pd.Series) -> float:
-    """Median where NaN means "never reached" (+inf); inf when half or more never reached."""
-    v = values.to_numpy(dtype=float)
-    return float(np.median(np.where(np.isnan(v), np.inf, v))) if len(v) else math.nan
+def summarize(
+    evaluations: pd.DataFrame,
+    threshold: float | None = None,
+    *,
+    confidence: float = CONFIDENCE,
+    resamples: int = RESAMPLES,
+) -> pd.DataFrame:
+    """Summary table, one row per (designer, env, controller), in the order designers appear.
 
-
-def summarize(evaluations: pd.DataFrame, optimum: float | None = None) -> pd.DataFrame:
-    """Summary table, one row per (designer, env, controller), in the order designers appear."""
-    runs = per_run(evaluations, optimum)
+    ``*_ci_low`` / ``*_ci_high`` bound the median over seeds (percentile bootstrap at
+    ``confidence``); evaluations to the threshold are ``inf`` where censored runs decide.
+    """
+    runs = per_run(evaluations, threshold)
     out = []
     for key, g in runs.groupby(GROUP, sort=False, dropna=False):
-        best = g["best_reward"]
+        best = g["best_reward"].dropna()
+        auc = g["mean_best_so_far"].dropna()
+        to_threshold = censored(g["evals_to_threshold"])
         row = {
             **dict(zip(GROUP, key)),
             "seeds": len(g),
             "best_median": float(best.median()),
+            **_ci("best", best, confidence, resamples),
             "best_q25": float(best.quantile(0.25)),
             "best_q75": float(best.quantile(0.75)),
             "best_min": float(best.min()),
             "best_max": float(best.max()),
             "evaluations_median": float(g["evaluations"].median()),
-            "optimum": optimum if optimum is not None else math.nan,
-            "seeds_at_optimum": int(g["evals_to_optimum"].notna().sum()) if optimum is not None else 0,
-            "evals_to_optimum_median": _censored_median(g["evals_to_optimum"]) if optimum is not None else math.nan,
+            "threshold": threshold if threshold is not None else math.nan,
+            "seeds_reached": int(g["evals_to_threshold"].notna().sum()) if threshold is not None else 0,
+            "evals_to_threshold_median": censored_median(g["evals_to_threshold"]) if threshold is not None else math.nan,
+            **_ci("evals_to_threshold", to_threshold if threshold is not None else [], confidence, resamples),
+            "mean_best_so_far_median": float(auc.median()),
+            **_ci("mean_best_so_far", auc, confidence, resamples),
             "wall_seconds_median": float(g["wall_seconds"].median()),
         }
         out.append(row)
     return pd.DataFrame(out)
+
+
+def _ci(name: str, values, confidence: float, resamples: int) -> dict[str, float]:
+    low, high = bootstrap_ci(values, confidence=confidence, resamples=resamples)
+    return {f"{name}_ci_low": low, f"{name}_ci_high": high}

@@ -21,6 +21,7 @@ from gdabench.designers.gda.model import UNet, parameter_count
 from gdabench.designers.gda.runtime import torch_threads
 from gdabench.designers.gda.sampling import ancestral_sample, ddim_sample
 from gdabench.designers.gda.schedule import make_schedule
+from gdabench.designers.gda.surrogate import ridge_predictor
 from gdabench.designers.gda.training import Trainer, repeat_to
 
 from gda_reference import RefUNet
@@ -333,6 +334,39 @@ def test_variants_and_options_run():
     assert len(run(fast, 2)[-1]) == 10
 
 
+def test_ridge_regression_learns_a_voxel_sum_reward():
+    rng = np.random.default_rng(0)
+    train = np.stack([random_body(rng).voxels for _ in range(300)])
+    test = np.stack([random_body(rng).voxels for _ in range(200)])
+    predict = ridge_predictor(train, train.sum(axis=(1, 2)).astype(float))
+    assert np.corrcoef(predict(test), test.sum(axis=(1, 2)))[0, 1] > 0.95
+
+
+def test_pool_proposes_the_bodies_the_regression_rates_best(monkeypatch):
+    designer = gda(pool=40)
+    history = run(designer, 3)
+    everything = [b for gen in history for b in gen]
+    assert all(len(gen) == 10 and all(b.is_valid for b in gen) for gen in history)
+    assert len({b.hash for b in everything}) == len(everything)
+    assert designer._seen == {b.hash for b in everything}  # the bodies left in the pool stay unseen
+    # the choice: the best-rated candidates of the pool, in order of rating
+    chosen = {}
+    original = GenerationalDiffusion._most_promising
+
+    def spy(self, candidates, k):
+        picked = original(self, candidates, k)
+        chosen.update(candidates=candidates, picked=picked)
+        return picked
+
+    monkeypatch.setattr(GenerationalDiffusion, "_most_promising", spy)
+    designer.ask()
+    voxels, rewards = zip(*designer.evaluated)
+    predict = ridge_predictor(np.stack(voxels), np.array(rewards))
+    scores = predict(np.stack([b.voxels for b in chosen["candidates"]]))
+    assert len(chosen["candidates"]) == 40
+    assert sorted(predict(np.stack([b.voxels for b in chosen["picked"]])))[0] >= sorted(scores)[-10]
+
+
 def test_prior_bodies_train_the_first_model(tmp_path, captured_training):
     prior = tmp_path / "prior.txt"
     prior.write_text("# best bodies of another run\n44444/44444/44444/44444/44443 99\n33333/33333/33333/33333/33333\n")
@@ -353,6 +387,7 @@ def test_prior_bodies_train_the_first_model(tmp_path, captured_training):
         ({"threads": 0}, "threads must be at least 1"),
         ({"temperature": -1}, "temperature must be at least 0"),
         ({"compile": "sometimes"}, "compile must be"),
+        ({"pool": 5}, "pool must be at least the population"),
     ],
 )
 def test_bad_parameters_are_one_line_errors(params, message):

@@ -8,4 +8,15 @@ from ..specs import ControllerSpec
 
 @hookimpl
 def gdabench_controllers() -> list[ControllerSpec]:
-    return []
+    return [
+        ControllerSpec(
+            name="open-loop",
+            factory="gdabench.controllers.open_loop:OpenLoop",
+            description="Periodic actuation: a sinusoid whose phase depends on the actuator's position (no learning)",
+        ),
+        ControllerSpec(
+            name="ppo",
+            factory="gdabench.controllers.ppo.controller:PPO",
+            description="PPO on TorchRL with Evolution Gym 2.0's settings; reward = best evaluation (timesteps=1e6 is faithful)",
+        ),
+    ]

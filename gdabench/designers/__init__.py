@@ -15,6 +15,11 @@ def gdabench_designers() -> list[DesignerSpec]:
             description="Evolution Gym's genetic algorithm: mutation only, survivors 60% -> 0% of the population",
         ),
         DesignerSpec(
+            name="cppn",
+            factory="gdabench.designers.cppn:CppnNeat",
+            description="Evolution Gym's CPPN-NEAT on neat-python: CPPNs paint bodies, NEAT evolves the CPPNs",
+        ),
+        DesignerSpec(
             name="random",
             factory="gdabench.designers.random_search:RandomSearch",
             description="Fresh random valid bodies every generation: the floor any designer must beat",

@@ -20,9 +20,7 @@ from __future__ import annotations
 import math
 from typing import Any, Mapping, Sequence
 
-import numpy as np
-
-from ..body import EVOGYM_VOXEL_WEIGHTS, N_VOXEL_TYPES, Body, invalid_reason, random_body
+from ..body import Body, mutate, random_body
 from ..designer import Designer, top_k
 from ..errors import ConfigError, DesignerError
 
@@ -85,7 +83,7 @@ class GeneticAlgorithm(Designer):
             if len(children) == wanted:
                 return children
             parent = self.survivors[int(self.rng.integers(len(self.survivors)))][0]
-            child = self.mutate(parent)
+            child = mutate(parent, self.rng, self.mutation_rate, self.attempts)
             if child is not None and child.hash not in self._seen:
                 children.append(self._remember(child))
                 self._parents.append(parent.hash)
@@ -102,19 +100,6 @@ class GeneticAlgorithm(Designer):
 
     def proposal_info(self) -> list[Mapping[str, Any]]:
         return [{"parent": p} for p in self._parents]
-
-    # -- variation ---------------------------------------------------------------------------
-    def mutate(self, parent: Body) -> Body | None:
-        """Evolution Gym's ``mutate``: mutate one copy repeatedly until it is valid (or give up)."""
-        child = np.array(parent.voxels)
-        for _ in range(self.attempts):
-            mask = self.rng.random(child.shape) < self.mutation_rate
-            n = int(mask.sum())
-            if n:
-                child[mask] = self.rng.choice(N_VOXEL_TYPES, size=n, p=EVOGYM_VOXEL_WEIGHTS)
-            if invalid_reason(child) is None:
-                return Body(child)
-        return None
 
     def _remember(self, body: Body) -> Body:
         self._seen.add(body.hash)

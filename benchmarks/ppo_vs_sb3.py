@@ -1,0 +1,148 @@
+"""The ``ppo`` controller against stable-baselines3's PPO: same body, settings and timesteps.
+
+Both sides train Evolution Gym 2.0's PPO (lr 2.5e-4, 128 steps per rollout, minibatches of 4,
+4 epochs, gamma 0.99, GAE 0.95, value 0.5, entropy 0.01, clip 0.1, gradient norm 0.5, one env)
+on ``gdabench/Walker-v0`` for the same body and number of timesteps, one torch thread each,
+each training in its own fresh process, the two sides alternating so that they share the same
+machine load.  Printed per run and as medians:
+
+* throughput: environment steps per second of training (collection + updates, no
+  evaluation).  For gdabench it is given with and without the first minibatch step, which
+  includes compiling (a fixed cost per body of a few seconds); CPU-seconds of the process
+  are printed too, because on a shared machine wall-clock time is not all the process's own;
+* final mean evaluation reward: the final policy of each side plays ``--episodes`` episodes
+  scored the same way (actions sampled from a seeded generator, Evolution Gym 2.0's
+  convention of dropping the last step's reward) and, separately, its mean action.
+
+Usage (needs the ``bench`` extra: ``pip install -e .[bench]``)::
+
+    python benchmarks/ppo_vs_sb3.py --timesteps 50000 --seeds 0,1,2
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import json
+import statistics
+import subprocess
+import sys
+import time
+from typing import Any
+
+#: a body that walks (an open-loop gait moves it about 5.5 on Walker-v0): legs of vertical actuators
+DEFAULT_BODY = "00000/44444/44444/40004/40004"
+SB3_SETTINGS = dict(learning_rate=2.5e-4, n_steps=128, batch_size=4, n_epochs=4, gamma=0.99, gae_lambda=0.95, vf_coef=0.5, ent_coef=0.01, clip_range=0.1, max_grad_norm=0.5)
+
+
+class _SB3Policy:
+    """An SB3 policy behind the ``act(observation, generator)`` interface gdabench's evaluation uses."""
+
+    def __init__(self, model: Any):
+        self.model = model
+
+    def act(self, observation: Any, generator: Any = None) -> Any:
+        import torch
+
+        with torch.no_grad():
+            dist = self.model.policy.get_distribution(observation).distribution
+            if generator is None:
+                return dist.mean
+            return dist.mean + dist.stddev * torch.randn(dist.mean.shape, generator=generator)
+
+
+def _evaluate(policy: Any, make_env: Any, episodes: int, seed: int) -> dict[str, float]:
+    import torch
+
+    from gdabench.controllers.ppo.evaluation import evaluate_policy
+
+    sampled = [
+        evaluate_policy(policy, make_env, n_evals=1, episode_end="evogym2", generator=torch.Generator().manual_seed(seed * 1000 + i))[0]
+        for i in range(episodes)
+    ]
+    mean_action = evaluate_policy(policy, make_env, n_evals=1, episode_end="evogym2")[0]
+    return {"reward": statistics.fmean(sampled), "reward_mean_action": mean_action}
+
+
+def run_one(side: str, body: str, timesteps: int, seed: int, episodes: int) -> dict[str, Any]:
+    """Train one side once in this process; returns its figures."""
+    import torch
+
+    torch.set_num_threads(1)
+    from gdabench.body import as_body
+    from gdabench.envs.walker.env import make_walker
+
+    make_env = functools.partial(make_walker, as_body(body))
+    if side == "sb3":
+        from stable_baselines3 import PPO as SB3PPO
+
+        model = SB3PPO("MlpPolicy", make_env(), seed=seed, device="cpu", verbose=0, **SB3_SETTINGS)
+        wall, cpu = time.perf_counter(), time.process_time()
+        model.learn(timesteps)
+        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+        steps = model.num_timesteps
+        out = {"steps_per_s": steps / wall, "steps_per_s_cpu": steps / cpu}
+        policy: Any = _SB3Policy(model)
+    else:
+        from gdabench.controllers.ppo import PPOConfig
+        from gdabench.controllers.ppo.train import train
+
+        config = PPOConfig(timesteps=timesteps, eval_interval=10 * timesteps)  # evaluation only at the end
+        result = train(config, make_env, seed=seed, device=torch.device("cpu"), compiled=side == "gdabench")
+        steps, s, c = result.timesteps, result.seconds, result.cpu_seconds
+        wall = s["collect"] + s["update"]
+        out = {
+            "steps_per_s": steps / wall,
+            "steps_per_s_cpu": steps / (c["collect"] + c["update"]),
+            "steps_per_s_after_warmup": steps / (wall - s["warmup"]),
+            "warmup_s": s["warmup"],
+        }
+        policy = result.nets
+    out.update(_evaluate(policy, make_env, episodes, seed))
+    return {"side": side, "seed": seed, "timesteps": steps, **out}
+
+
+def _spawn(side: str, args: argparse.Namespace, seed: int) -> dict[str, Any]:
+    cmd = [sys.executable, __file__, "--one", side, "--body", args.body, "--timesteps", str(args.timesteps), "--seeds", str(seed), "--episodes", str(args.episodes)]
+    done = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    lines = [line for line in done.stdout.splitlines() if line.startswith("{")]
+    if done.returncode != 0 or not lines:
+        raise SystemExit(f"{side} seed {seed} failed:\n{done.stderr[-2000:]}")
+    return json.loads(lines[-1])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--body", default=DEFAULT_BODY)
+    parser.add_argument("--timesteps", type=int, default=50_000)
+    parser.add_argument("--seeds", default="0,1,2")
+    parser.add_argument("--episodes", type=int, default=5, help="evaluation episodes with sampled actions")
+    parser.add_argument("--sides", default="sb3,gdabench", help="sb3, gdabench (compiled step), gdabench-eager")
+    parser.add_argument("--one", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    seeds = [int(s) for s in args.seeds.split(",")]
+    if args.one:
+        print(json.dumps(run_one(args.one, args.body, args.timesteps, seeds[0], args.episodes)))
+        return
+    sides = args.sides.split(",")
+    print(f"body {args.body}, {args.timesteps} timesteps, seeds {seeds}, sides alternate: {', '.join(sides)}", flush=True)
+    rows = []
+    for seed in seeds:
+        for side in sides if seed % 2 == 0 else sides[::-1]:  # alternate who goes first
+            row = _spawn(side, args, seed)
+            rows.append(row)
+            print(json.dumps({k: round(v, 3) if isinstance(v, float) else v for k, v in row.items()}), flush=True)
+    print("\nmedians over seeds:")
+    keys = ["steps_per_s", "steps_per_s_after_warmup", "steps_per_s_cpu", "warmup_s", "reward", "reward_mean_action"]
+    medians = {side: {k: statistics.median(r[k] for r in rows if r["side"] == side) for k in keys if all(k in r for r in rows if r["side"] == side)} for side in sides}
+    for side, figures in medians.items():
+        print(f"  {side:15s} " + "  ".join(f"{k}={v:.3f}" for k, v in figures.items()))
+    if "sb3" in medians:
+        for side in sides:
+            if side != "sb3":
+                speed = medians[side]["steps_per_s"] / medians["sb3"]["steps_per_s"]
+                print(f"  {side} / sb3: throughput x{speed:.2f}, reward {medians[side]['reward']:.3f} vs {medians['sb3']['reward']:.3f}")
+
+
+if __name__ == "__main__":
+    main()

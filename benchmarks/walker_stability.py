@@ -1,0 +1,118 @@
+"""Stability of the walker simulator: random valid bodies driven by random actions.
+
+For each body (Evolution Gym's sampler, ``gdabench.random_body``) one episode of uniformly
+random actions in [0.6, 1.6] (or, with ``--actions open-loop``, the open-loop controller's
+default gait) is played on ``gdabench/Walker-v0``.  Prints the share of
+episodes that ended unstable (-3, terminated) with the reasons, and checks that nothing
+slipped through undetected: no exception, no NaN, every observation inside the observation
+space, no step moving the centre of mass implausibly far, every unstable step rewarded -3.
+
+    python benchmarks/walker_stability.py --bodies 1000 --steps 500 --seed 0
+    python benchmarks/walker_stability.py --bodies 1000 --actions open-loop
+    python benchmarks/walker_stability.py --bodies 200 --physics damping_time=0.01
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import json
+import time
+from dataclasses import fields, replace
+
+import gymnasium
+import numpy as np
+
+import gdabench
+from gdabench.controllers.open_loop import OpenLoop
+from gdabench.envs.walker.sim import WalkerPhysics
+
+#: per-step centre-of-mass motion no stable simulation produces (30 m/s at 0.01 s per step)
+IMPLAUSIBLE_STEP = 0.5
+
+
+def parse_physics(items: list[str]) -> WalkerPhysics:
+    known = {f.name: f.type for f in fields(WalkerPhysics)}
+    changes = {}
+    for item in items:
+        key, _, value = item.partition("=")
+        if key not in known:
+            raise SystemExit(f"unknown physics parameter {key!r}; known: {', '.join(known)}")
+        changes[key] = json.loads(value)
+    return replace(WalkerPhysics(), **changes)
+
+
+def episode(body: gdabench.Body, physics: WalkerPhysics, rng: np.random.Generator, steps: int, actions: str) -> dict:
+    env = gymnasium.make("gdabench/Walker-v0", body=body, physics=physics, max_episode_steps=steps)
+    out = {"unstable": None, "nan": False, "outside": False, "implausible": False, "bad_penalty": False, "steps": 0}
+    obs, _ = env.reset(seed=0)
+    space = env.observation_space
+    gait = OpenLoop().pattern
+    phases = gait.phases(env.unwrapped.actuator_voxels)
+    while True:
+        if actions == "random":
+            action = rng.uniform(0.6, 1.6, size=env.action_space.shape)
+        else:
+            action = np.clip(gait.action(phases, out["steps"]), 0.6, 1.6)
+        obs, reward, terminated, truncated, info = env.step(action)
+        out["steps"] += 1
+        if not (np.isfinite(obs).all() and np.isfinite(reward)):
+            out["nan"] = True
+        if not space.contains(obs):
+            out["outside"] = True
+        if "unstable" in info:
+            out["unstable"] = info["unstable"]
+            out["bad_penalty"] = reward != -3.0 or not terminated
+        elif abs(reward) > IMPLAUSIBLE_STEP + 1.0:  # the goal bonus is +1
+            out["implausible"] = True
+        if terminated or truncated:
+            return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--bodies", type=int, default=1000)
+    parser.add_argument("--steps", type=int, default=500)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--shape", default="5x5")
+    parser.add_argument("--actions", choices=("random", "open-loop"), default="random")
+    parser.add_argument("--physics", nargs="*", default=[], metavar="KEY=VALUE", help="override WalkerPhysics fields")
+    args = parser.parse_args()
+    physics = parse_physics(args.physics)
+    shape = tuple(int(v) for v in args.shape.split("x"))
+    body_rng, action_rng = (np.random.default_rng(s) for s in np.random.SeedSequence(args.seed).spawn(2))
+    reasons: collections.Counter[str] = collections.Counter()
+    problems: collections.Counter[str] = collections.Counter()
+    examples: dict[str, str] = {}
+    total_steps, start = 0, time.perf_counter()
+    for _ in range(args.bodies):
+        body = gdabench.random_body(body_rng, shape)
+        try:
+            result = episode(body, physics, action_rng, args.steps, args.actions)
+        except Exception as exc:  # noqa: BLE001 - counted and reported, never hidden
+            problems["exception"] += 1
+            examples.setdefault("exception", f"{body.text}: {type(exc).__name__}: {exc}")
+            continue
+        total_steps += result["steps"]
+        if result["unstable"]:
+            reasons[result["unstable"]] += 1
+            examples.setdefault(result["unstable"], body.text)
+        for key in ("nan", "outside", "implausible", "bad_penalty"):
+            if result[key]:
+                problems[key] += 1
+                examples.setdefault(key, body.text)
+    seconds = time.perf_counter() - start
+    unstable = sum(reasons.values())
+    print(f"bodies: {args.bodies} ({args.shape}), {args.actions} actions, {args.steps} steps each, seed {args.seed}")
+    print(f"unstable episodes: {unstable} ({100.0 * unstable / args.bodies:.2f}%)")
+    for reason, count in reasons.most_common():
+        print(f"  {count:5d}  {reason}  (e.g. {examples[reason]})")
+    print(f"undetected problems: {sum(problems.values())} {dict(problems) or ''}")
+    for key, text in examples.items():
+        if key in problems:
+            print(f"  {key}: {text}")
+    print(f"env steps: {total_steps} in {seconds:.1f} s ({total_steps / seconds:.0f} steps/s including env creation)")
+
+
+if __name__ == "__main__":
+    main()

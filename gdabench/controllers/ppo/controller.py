@@ -1,0 +1,144 @@
+"""The ``ppo`` controller: train PPO on the body, report the best evaluation, keep the policy.
+
+``PPO(**params)`` takes every :class:`~gdabench.controllers.ppo.config.PPOConfig` field as a
+keyword (``-C timesteps=1e6 -C n_envs=4`` on the command line) and checks them at once, so bad
+settings fail before a run starts.  ``evaluate`` trains (see
+:mod:`~gdabench.controllers.ppo.train`) and saves the best policy in the body's work directory;
+when that directory already holds a policy trained with the same settings and seed, it is
+replayed instead of trained again: that is how ``gdabench report`` and ``gdabench replay``
+animate a body, and how a resumed run skips bodies it already trained.
+"""
+
+from __future__ import annotations
+
+import inspect
+import shutil
+from pathlib import Path
+from typing import Any, Callable
+
+import torch
+
+from ...environment import Controller, Evaluation
+from ...errors import ConfigError
+from .config import COMPILE_MIN_TIMESTEPS, PPOConfig
+from .evaluation import evaluate_policy
+from .policy_file import SavedPolicy, has_policy, load_policy, save_policy
+from .train import TrainResult, evaluation_generator, seeded_torch, train
+
+#: settings that change how fast a policy is trained, not what it becomes
+RUNTIME_SETTINGS = ("device", "threads", "compile")
+
+
+def resolve_device(name: str) -> torch.device:
+    """``cpu``, ``cuda``/``cuda:N`` when torch sees that GPU, ``auto`` (cuda if present), or a one-line error."""
+    if name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    try:
+        device = torch.device(name)
+    except (RuntimeError, TypeError):
+        raise ConfigError(f"ppo: unknown device {name!r}; use cpu, cuda, cuda:N or auto") from None
+    if device.type == "cpu":
+        return device
+    if device.type != "cuda":
+        raise ConfigError(f"ppo: device {name!r} is not supported; use cpu, cuda, cuda:N or auto")
+    if not torch.cuda.is_available():
+        raise ConfigError(f"ppo: device {name!r} requested but torch sees no CUDA GPU; use device=cpu")
+    if device.index is not None and device.index >= torch.cuda.device_count():
+        raise ConfigError(f"ppo: device {name!r} does not exist; torch sees {torch.cuda.device_count()} GPU(s)")
+    return device
+
+
+def has_cpp_compiler() -> bool:
+    """torch.compile's CPU backend needs a C++ compiler on the PATH."""
+    return any(shutil.which(name) for name in ("g++", "c++", "clang++"))
+
+
+class PPO(Controller):
+    """Evolution Gym 2.0's PPO on TorchRL (parameters: every PPOConfig field)."""
+
+    def __init__(self, **params: Any):
+        try:
+            self.config = PPOConfig(**params)
+        except TypeError as exc:  # an unknown keyword
+            raise ConfigError(f"ppo: {exc}") from None
+        self.device = resolve_device(self.config.device)
+        self.compiled = self._compiled()
+
+    def _compiled(self) -> bool:
+        choice = self.config.compile
+        if choice is True:
+            if self.device.type == "cpu" and not has_cpp_compiler():
+                raise ConfigError("ppo: compile=true needs a C++ compiler (g++ or clang++) on the PATH; use compile=false")
+            return True
+        if choice is False:
+            return False
+        # auto: compiled steps only on CPU (the tested path) and when training is long enough to repay compiling
+        return self.device.type == "cpu" and self.config.timesteps >= COMPILE_MIN_TIMESTEPS and has_cpp_compiler()
+
+    def fingerprint(self, seed: int) -> dict[str, Any]:
+        """What determines the trained policy: a saved policy with the same fingerprint is reused."""
+        settings = {k: v for k, v in self.config.as_dict().items() if k not in RUNTIME_SETTINGS}
+        return {"settings": settings, "seed": int(seed), "compiled": self.compiled}
+
+    def evaluate(self, make_env: Callable[[], Any], *, seed: int, workdir: Path | None = None) -> Evaluation:
+        if has_policy(workdir):
+            saved = load_policy(workdir, self.device)
+            if saved.meta.get("trained_with") == self.fingerprint(seed):
+                return Evaluation(replay_policy(saved, make_env), {"replayed": 1})
+        result = train(self.config, make_env, seed=seed, device=self.device, compiled=self.compiled)
+        if workdir is not None:
+            save_policy(workdir, result.nets, self._meta(result, seed))
+        return Evaluation(result.reward, self._info(result))
+
+    def _meta(self, result: TrainResult, seed: int) -> dict[str, Any]:
+        return {
+            "trained_with": self.fingerprint(seed),
+            "reward": result.reward,
+            "best_evaluation": result.best_index,
+            "evaluations": [{"timesteps": e.timesteps, "scores": e.scores} for e in result.evaluations],
+            "timesteps": result.timesteps,
+            "unstable_episodes": result.unstable_episodes,
+            "diverged": result.diverged,
+            "seconds": result.seconds,
+        }
+
+    @staticmethod
+    def _info(result: TrainResult) -> dict[str, Any]:
+        return {
+            "env_steps": result.timesteps,
+            "ppo_best_at": result.best.timesteps,
+            "ppo_unstable_episodes": result.unstable_episodes,
+            "ppo_diverged": int(result.diverged),
+            "ppo_compiled": int(result.compiled),
+            "ppo_train_seconds": round(result.seconds["collect"] + result.seconds["update"], 3),
+            "ppo_eval_seconds": round(result.seconds["evaluate"], 3),
+            "replayed": 0,
+        }
+
+
+# the harness reads a factory's keyword parameters from its signature: expose PPOConfig's fields
+PPO.__init__.__signature__ = inspect.Signature(  # type: ignore[attr-defined]
+    [inspect.Parameter("self", inspect.Parameter.POSITIONAL_OR_KEYWORD)]
+    + [p.replace(kind=inspect.Parameter.KEYWORD_ONLY) for p in inspect.signature(PPOConfig).parameters.values()]
+)
+
+
+def replay_policy(saved: SavedPolicy, make_env: Callable[[], Any]) -> float:
+    """Play the saved policy's winning evaluation again in environments from ``make_env``.
+
+    Returns its mean score; it equals the reward the body was scored with as long as the
+    environment has not changed.  Episodes pass through ``make_env``'s environments, so a
+    recording wrapper there (``Environment.render_frames``) can draw them.
+    """
+    config = PPOConfig(**saved.meta["trained_with"]["settings"])
+    seed = saved.meta["trained_with"]["seed"]
+    device = next(saved.nets.parameters()).device
+    with seeded_torch(seed, config.threads):
+        generator = evaluation_generator(config, seed, saved.meta["best_evaluation"], device)
+        scores = evaluate_policy(saved.nets, make_env, n_evals=config.n_evals, episode_end=config.episode_end, generator=generator, device=device)
+    return float(sum(scores) / len(scores))
+
+
+def replay(workdir: Path, make_env: Callable[[], Any], device: str = "cpu") -> float:
+    """Replay the policy saved in ``workdir`` (see :func:`replay_policy`); returns its score."""
+    return replay_policy(load_policy(workdir, resolve_device(device)), make_env)

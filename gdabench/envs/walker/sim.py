@@ -1,0 +1,213 @@
+"""Soft-voxel simulation on pymunk: point masses joined by damped springs, on flat rigid terrain.
+
+Every physical constant lives in :class:`WalkerPhysics` (the README's "Walker physics" section
+explains the choices).  :class:`VoxelSim` builds the pymunk space for one body, applies actuator
+ratios as spring rest lengths, advances one environment step at a time and reports when the
+simulation has become unstable instead of letting NaNs or tangled voxels through.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pymunk
+import pymunk.batch
+
+from ...body import H_ACT, SOFT, V_ACT
+from .mesh import Mesh, SpringTable, build_mesh
+
+#: the rest-length setter itself: assigning through the attribute passes pymunk's typing mixin's
+#: ``__setattr__`` first, which made setting ~100 rest lengths per step 2.5 times slower
+_SET_REST_LENGTH = pymunk.DampedSpring.rest_length.fset
+
+
+@dataclass(frozen=True)
+class WalkerPhysics:
+    """All physical constants of the walker simulation (SI units: m, kg, s).
+
+    Time and length scales follow Evolution Gym by similarity: with voxels of 0.1 m and
+    g = 9.81 m/s^2, an environment step of 0.01 s has the same g * dt^2 / voxel (about 0.01)
+    as Evolution Gym's step (30 updates of 1e-4 s under gravity 110), so 500 steps, body
+    speeds and rewards land on the same scale.
+    """
+
+    voxel_size: float = 0.1
+    #: simulated seconds per environment step, and pymunk steps within it
+    step_seconds: float = 0.01
+    substeps: int = 8
+    #: pymunk solver iterations per substep (contacts and spring damping)
+    iterations: int = 4
+    gravity: float = 9.81
+    #: every voxel corner is a point mass of this many kg (shared corners count once)
+    point_mass: float = 1.0
+    #: spring stiffness (N/m) one voxel contributes to each of its edges; diagonals get a fraction.
+    #: Rigid voxels have no stiffness to set: their edges and diagonals are fixed distances.
+    soft_stiffness: float = 24_000.0
+    actuator_stiffness: float = 30_000.0
+    soft_diagonal_fraction: float = 0.25
+    actuator_diagonal_fraction: float = 0.5
+    #: damping (N s/m) of each spring per unit of its stiffness: a relaxation time in seconds
+    damping_time: float = 0.02
+    #: Coulomb friction coefficient between the points and the terrain
+    friction: float = 2.0
+    #: collision radius of a point mass (m); points collide with the terrain and each other
+    point_radius: float = 0.045
+    #: instability: any point faster than this (m/s) ...
+    max_speed: float = 30.0
+    #: ... or any voxel whose area falls below this fraction of its rest area (inverted or crushed) ...
+    min_area_ratio: float = 0.1
+    #: ... or any spring longer than this multiple of its unactuated length
+    max_stretch: float = 2.5
+
+    def tables(self) -> dict[int, SpringTable]:
+        """Per-voxel spring constants of soft and actuator voxels."""
+
+        def table(k: float, diagonal_fraction: float) -> SpringTable:
+            kd = k * diagonal_fraction
+            return SpringTable(k, kd, k * self.damping_time, kd * self.damping_time)
+
+        act = table(self.actuator_stiffness, self.actuator_diagonal_fraction)
+        return {SOFT: table(self.soft_stiffness, self.soft_diagonal_fraction), H_ACT: act, V_ACT: act}
+
+
+@dataclass(frozen=True)
+class Terrain:
+    """Flat rigid terrain from ``x_start`` to ``x_end`` with its surface at ``top``, and an
+    endless floor at ``floor`` (Evolution Gym also collides everything with the plane y = 0)."""
+
+    x_start: float
+    x_end: float
+    top: float
+    floor: float
+
+    def surface(self, x: np.ndarray) -> np.ndarray:
+        """Height of the ground under each x."""
+        return np.where((x > self.x_start) & (x < self.x_end), self.top, self.floor)
+
+
+class VoxelSim:
+    """One body on flat terrain.  ``positions``/``velocities`` are (n_points, 2) arrays."""
+
+    def __init__(
+        self,
+        voxels: np.ndarray,
+        physics: WalkerPhysics,
+        *,
+        origin: tuple[float, float],
+        terrain: Terrain,
+    ):
+        """``origin`` is where the lower-left corner of the body's grid starts."""
+        self.physics = physics
+        self.mesh: Mesh = build_mesh(voxels, physics.tables(), voxel_size=physics.voxel_size, origin=origin)
+        self.terrain = terrain
+        self._build_space()
+        self._buffer = pymunk.batch.Buffer()
+        self._rows = self._batch_rows()
+        self._fields = pymunk.batch.BodyFields.POSITION | pymunk.batch.BodyFields.VELOCITY
+        self._read_state()
+        m = self.mesh
+        self._min_area = physics.min_area_ratio * physics.voxel_size**2
+        self._max_length_sq = (physics.max_stretch * m.spring_base) ** 2
+        self._ends_a, self._ends_b = m.spring_ends[:, 0], m.spring_ends[:, 1]
+        self._tl, self._tr, self._br, self._bl = m.voxel_corners.T
+        self._driven_constraints = [self._springs[i] for i in m.driven]
+
+    # -- construction --------------------------------------------------------------------------
+    def _build_space(self) -> None:
+        p, m = self.physics, self.mesh
+        space = pymunk.Space()
+        space.gravity = (0.0, -p.gravity)
+        space.iterations = p.iterations
+        # pymunk's defaults assume pixel units; allow only a millimetre of overlap here
+        space.collision_slop = 0.001
+        self.space = space
+        self._bodies = []
+        for x, y in m.points:
+            body = pymunk.Body(p.point_mass, math.inf)  # points do not rotate
+            body.position = (float(x), float(y))
+            shape = pymunk.Circle(body, p.point_radius)
+            shape.friction = p.friction
+            shape.elasticity = 0.0
+            space.add(body, shape)
+            self._bodies.append(body)
+        self._springs = []
+        for (a, b), rest, k, c, rigid in zip(m.spring_ends, m.spring_base, m.stiffness, m.damping, m.spring_rigid):
+            if rigid:  # a fixed distance, held by pymunk's constraint solver
+                spring = pymunk.PinJoint(self._bodies[a], self._bodies[b])
+            else:
+                spring = pymunk.DampedSpring(self._bodies[a], self._bodies[b], (0, 0), (0, 0), float(rest), float(k), float(c))
+            spring.collide_bodies = False
+            space.add(spring)
+            self._springs.append(spring)
+        self._separate_coincident_points()
+        # the terrain block and the endless floor: their tops lie one point radius below the
+        # surfaces, so resting point masses sit exactly on them; being a metre thick keeps fast
+        # points from tunnelling through
+        t, r = self.terrain, p.point_radius
+        for box in (pymunk.BB(t.x_start, t.top - 1.0, t.x_end, t.top - r), pymunk.BB(-1e4, t.floor - 1.0, 1e4, t.floor - r)):
+            ground = pymunk.Poly.create_box_bb(space.static_body, box)
+            ground.friction = 1.0  # pymunk multiplies the two frictions: the points' value rules
+            space.add(ground)
+
+    def _separate_coincident_points(self) -> None:
+        """Voxels touching only at a corner have two points there: stop those colliding."""
+        pts = self.mesh.points
+        order = np.lexsort((pts[:, 1], pts[:, 0]))
+        for a, b in zip(order[:-1], order[1:]):
+            if np.allclose(pts[a], pts[b]):
+                link = pymunk.DampedSpring(self._bodies[a], self._bodies[b], (0, 0), (0, 0), 0.0, 0.0, 0.0)
+                link.collide_bodies = False  # a force-free constraint whose only job is this flag
+                self.space.add(link)
+
+    # -- stepping ------------------------------------------------------------------------------
+    def set_ratios(self, ratios: np.ndarray) -> None:
+        """Target length ratio of every actuator (action order); rest lengths change at once."""
+        rest = self.mesh.rest_lengths(ratios)
+        for spring, length in zip(self._driven_constraints, rest.tolist()):
+            _SET_REST_LENGTH(spring, length)
+
+    def step(self) -> None:
+        """Advance one environment step."""
+        dt = self.physics.step_seconds / self.physics.substeps
+        for _ in range(self.physics.substeps):
+            self.space.step(dt)
+        self._read_state()
+
+    def _batch_rows(self) -> np.ndarray:
+        """Where each point's body appears in pymunk's batch output (it also lists static bodies)."""
+        self._buffer.clear()
+        pymunk.batch.get_space_bodies(self.space, pymunk.batch.BodyFields.BODY_ID, self._buffer)
+        ids = list(memoryview(self._buffer.int_buf()).cast("P"))
+        row_of = {body_id: row for row, body_id in enumerate(ids)}
+        return np.array([row_of[body.id] for body in self._bodies], dtype=np.intp)
+
+    def _read_state(self) -> None:
+        """Copy every point's position and velocity out of pymunk in one call."""
+        self._buffer.clear()
+        pymunk.batch.get_space_bodies(self.space, self._fields, self._buffer)
+        self._state = np.frombuffer(self._buffer.float_buf(), dtype=np.float64).reshape(-1, 4)[self._rows]
+        self.positions = self._state[:, :2]
+        self.velocities = self._state[:, 2:]
+
+    # -- checks --------------------------------------------------------------------------------
+    def instability(self) -> str | None:
+        """Why the current state is not a trustworthy simulation any more, or None."""
+        p, pos, vel = self.physics, self.positions, self.velocities
+        if not np.isfinite(self._state).all():
+            return "non-finite state"
+        if np.einsum("ij,ij->i", vel, vel).max() > p.max_speed**2:
+            return "a point moves faster than max_speed"
+        # area of a quadrilateral: half the cross product of its diagonals, signed so that an
+        # upright voxel (corners TL, TR, BR, BL run clockwise) is positive and a flipped one negative
+        diag1, diag2 = pos[self._br] - pos[self._tl], pos[self._bl] - pos[self._tr]
+        area = 0.5 * (diag1[:, 1] * diag2[:, 0] - diag1[:, 0] * diag2[:, 1])
+        if area.min() < self._min_area:
+            return "a voxel collapsed or turned inside out"
+        d = pos[self._ends_a] - pos[self._ends_b]
+        if (np.einsum("ij,ij->i", d, d) > self._max_length_sq).any():
+            return "a spring stretched beyond max_stretch"
+        if (pos[:, 1] < self.terrain.surface(pos[:, 0]) - 0.5 * p.voxel_size).any():
+            return "a point went through the terrain"
+        return None

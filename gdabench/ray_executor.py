@@ -1,0 +1,130 @@
+"""Evaluating bodies on Ray: a local Ray instance, or an existing cluster (``--ray-address``).
+
+Ray is an optional extra (``pip install 'gdabench[ray]'``) imported only when this executor is
+chosen.  The workers are Ray actors (1 CPU each, never restarted), supervised by the same pool
+as local processes (:mod:`gdabench.pool`): each actor builds the environment once, takes one
+body at a time, and a body that kills its actor or runs past the timeout costs only its own
+evaluation while a fresh actor takes the dead one's place.  Because a body is only sent to an
+idle, ready actor, the timeout measures the evaluation, not time spent queued on a busy
+cluster or starting a worker.  The designer stays in the driver.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import sys
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+from .errors import ConfigError
+from .evaluation import ERROR, EvalOutcome, EvalTask, evaluate, one_line, prepare
+from .executors import Executor
+from .pool import DIED, READY, RESULT, Backend, Slot, WorkerGone, WorkerPool
+from .specs import Factory
+
+
+def import_ray() -> Any:
+    try:
+        import ray
+    except ImportError:
+        raise ConfigError("the ray executor needs Ray: pip install 'gdabench[ray]'") from None
+    return ray
+
+
+class Evaluator:
+    """The actor: holds the environment and controller, evaluates one body per call."""
+
+    def __init__(self, warm: Sequence[Factory]):
+        prepare(warm)
+
+    def ready(self) -> bool:
+        return True
+
+    def evaluate(self, task: EvalTask) -> EvalOutcome:
+        return evaluate(task)
+
+
+@dataclass(eq=False)
+class _Actor:
+    handle: Any
+    pending: Any  # ObjectRef of the call in flight: ready() first, then each evaluate()
+
+
+class RayBackend(Backend):
+    def __init__(self, ray: Any, warm: Sequence[Factory]):
+        self.ray, self.warm = ray, tuple(warm)
+        self._cls = ray.remote(num_cpus=1, max_restarts=0, max_task_retries=0)(Evaluator)
+
+    def start(self) -> _Actor:
+        handle = self._cls.remote(self.warm)
+        return _Actor(handle, handle.ready.remote())
+
+    def send(self, worker: _Actor, task: EvalTask) -> None:
+        try:
+            worker.pending = worker.handle.evaluate.remote(task)
+        except self.ray.exceptions.RayActorError as exc:
+            raise WorkerGone from exc
+
+    def wait(self, slots: Sequence[Slot], timeout: float | None) -> list[tuple[Slot, str, Any]]:
+        ray = self.ray
+        by_ref = {slot.worker.pending: slot for slot in slots}
+        done, _ = ray.wait(list(by_ref), num_returns=1, timeout=timeout)
+        if done:  # collect everything else that finished meanwhile
+            done, _ = ray.wait(list(by_ref), num_returns=len(by_ref), timeout=0)
+        events: list[tuple[Slot, str, Any]] = []
+        for ref in done:
+            slot = by_ref[ref]
+            try:
+                value = ray.get(ref)
+            except ray.exceptions.RayActorError:
+                events.append((slot, DIED, "worker process died"))
+                continue
+            except ray.exceptions.RayError as exc:  # e.g. the task could not be unpickled on the worker
+                if not slot.ready:
+                    events.append((slot, DIED, f"ray: {one_line(exc)}"))
+                else:
+                    events.append((slot, RESULT, EvalOutcome(math.nan, ERROR, f"ray: {one_line(exc)}")))
+                continue
+            events.append((slot, RESULT, value) if slot.ready else (slot, READY, None))
+        return events
+
+    def kill(self, worker: _Actor) -> None:
+        self.ray.kill(worker.handle, no_restart=True)
+
+
+class RayExecutor(Executor):
+    """A pool of Ray actors; at most ``workers`` bodies at once (default: the cluster's CPUs)."""
+
+    name = "ray"
+
+    def __init__(self, workers: int | None = None, *, address: str | None = None, timeout: float | None = None, warm: Sequence[Factory] = ()):
+        ray = self.ray = import_ray()
+        self._started = False
+        if not ray.is_initialized():
+            options: dict[str, Any] = {"include_dashboard": False, "logging_level": logging.WARNING}
+            if address:
+                options["address"] = address
+            else:
+                # a local instance runs on this machine: give its workers the driver's import path,
+                # so that plugins importable here (installed or on PYTHONPATH) import there too
+                options["num_cpus"] = workers
+                options["runtime_env"] = {"env_vars": {"PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}}
+            try:
+                ray.init(**options)
+            except Exception as exc:  # noqa: BLE001 - connection failures come in several types
+                where = f"the Ray cluster at {address}" if address else "a local Ray instance"
+                raise ConfigError(f"cannot start or reach {where}: {one_line(exc)}") from None
+            self._started = True
+        self.workers = workers or max(1, int(ray.cluster_resources().get("CPU", 1)))
+        self._pool = WorkerPool(RayBackend(ray, warm), self.workers, timeout=timeout)
+
+    def map(self, tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
+        return self._pool.map(tasks)
+
+    def close(self) -> None:
+        self._pool.close()
+        if self._started:
+            self.ray.shutdown()
+            self._started = False

@@ -1,0 +1,373 @@
+"""Build the report of a run directory from its tidy tables and write it next to them.
+
+``write_report(run_dir)`` reads ``run.json`` and ``evaluations.parquet`` only, and writes into
+``<run>/report/`` (or ``out``):
+
+* ``report.html``: everything in one self-contained file; ``summary.md``: table and figures;
+* figures: ``best_so_far.png``, ``rewards_per_generation.png``, ``best_bodies.png``,
+  ``bodies_per_generation_<designer>.png``, ``diversity.png``, ``novelty.png`` and, for
+  environments that can show a body acting, ``animation_<designer>.gif``;
+* tables: ``summary.csv``, ``runs.csv``, ``generations.csv``, ``best_so_far.csv``,
+  ``diversity.csv``.
+
+A run that is still in progress, failed or was interrupted is reported as far as it got, with
+a note saying so; a directory that is not a run, or whose files cannot be read, raises a
+:class:`~gdabench.errors.RunDirectoryError` with one line.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ..body import Body
+from ..config import Experiment
+from ..errors import ConfigError, GdabenchError, RunDirectoryError
+from ..evaluation import COUNTED, OK
+from ..plugins import Registry, registry
+from ..results import RunDirectory, atomic_write_bytes
+from ..summary import per_run, summarize
+from . import plots
+from .animation import animate, build_scorers
+from .bodies import bodies_figure
+from .content import Figure, Report, Section
+from .diversity import NEAR_COPY, SURVIVORS, diversity
+from .html import render_html
+from .markdown import render_markdown
+from .stats import CONFIDENCE, RESAMPLES, best_so_far_curve, generation_rewards, median_band
+from .tables import summary_cells
+
+#: columns the report needs; everything else in the table is optional
+BEST_BODIES = 8
+GENERATION_COLUMNS = 10
+REPORT_DIR = "report"
+
+
+def load_run(run_dir: str | Path) -> tuple[RunDirectory, dict[str, Any], pd.DataFrame, list[str]]:
+    """Open a run directory and its evaluations table; notes say what is incomplete about it."""
+    run = RunDirectory.open(run_dir)
+    meta = run.meta
+    status = meta.get("status")
+    frame = run.load_evaluations()  # finished runs and the generations of unfinished ones
+    if frame.empty:
+        raise RunDirectoryError(f"{run.path} has no evaluations yet (run status {status!r}): nothing to report")
+    notes = []
+    if status != "complete":
+        counted = int(frame["status"].isin(COUNTED).sum())
+        why = {
+            "running": "it is still in progress (or was killed before it could say so)",
+            "failed": f"it failed: {meta.get('error') or 'no error recorded'}",
+            "interrupted": "it was interrupted",
+        }.get(str(status), "its state is unknown")
+        notes.append(f"run status is {status!r}: {why}; this report covers the {counted} evaluations written so far")
+    return run, meta, frame, notes
+
+
+def _experiment(meta: dict[str, Any], notes: list[str]) -> Experiment | None:
+    try:
+        return Experiment.from_json(meta["config"])
+    except (KeyError, TypeError, ValueError, GdabenchError):
+        notes.append("run.json has no readable configuration; budget and seeds are taken from the table")
+        return None
+
+
+def _budget(experiment: Experiment | None, frame: pd.DataFrame) -> int:
+    if experiment is not None:
+        return int(experiment.budget)
+    if "budget" in frame.columns and frame["budget"].notna().any():
+        return int(frame["budget"].max())
+    return int(frame["n_evals"].max())
+
+
+def _slug(label: str, taken: set[str]) -> str:
+    base = re.sub(r"[^A-Za-z0-9_.=-]+", "_", label).strip("_") or "designer"
+    slug, i = base, 1
+    while slug in taken:
+        i += 1
+        slug = f"{base}-{i}"
+    taken.add(slug)
+    return slug
+
+
+def _facts(run: RunDirectory, meta: dict[str, Any], experiment: Experiment | None, threshold: str) -> list[tuple[str, str]]:
+    facts = [("run", f"{meta.get('run_id', '?')} ({run.path})"), ("status", str(meta.get("status")))]
+    if meta.get("command"):
+        facts.append(("command", " ".join(map(str, meta["command"]))))
+    if experiment is not None:
+
+        def label(choice) -> str:
+            params = f" {json.dumps(dict(choice.params), sort_keys=True)}" if choice.params else ""
+            return f"{choice.label or choice.name}{params}"
+
+        facts += [
+            ("designers", ", ".join(d.label or d.name for d in experiment.designers)),
+            ("environment", label(experiment.env) + (f" / controller {label(experiment.controller)}" if experiment.controller else "")),
+            ("budget", f"{experiment.budget} evaluations per run, population {experiment.population}, shape {experiment.shape[0]}x{experiment.shape[1]}"),
+            ("seeds", ", ".join(map(str, experiment.seeds))),
+        ]
+    facts.append(("threshold", threshold))
+    for key in ("created", "finished"):
+        if meta.get(key):
+            facts.append((key, str(meta[key])))
+    versions = meta.get("versions") or {}
+    if versions:
+        core = ", ".join(f"{k} {v}" for k, v in versions.items() if k != "plugins" and v)
+        plugins = ", ".join(f"{k} {v}" for k, v in (versions.get("plugins") or {}).items())
+        facts.append(("versions", core + (f"; plugins: {plugins}" if plugins else "")))
+    platform = meta.get("platform") or {}
+    if platform:
+        facts.append(("platform", ", ".join(f"{k} {v}" for k, v in platform.items())))
+    return facts
+
+
+def _incomplete_runs(frame: pd.DataFrame, experiment: Experiment | None, budget: int) -> list[str]:
+    notes = []
+    counted = frame[frame["status"].isin(COUNTED)].groupby(["designer", "seed"], sort=False).size()
+    for (designer, seed), n in counted.items():
+        if n < budget:
+            notes.append(f"{designer} seed {seed}: {n} of {budget} evaluations")
+    if experiment is not None:
+        present = set(counted.index)
+        for seed in experiment.seeds:
+            for d in experiment.designers:
+                if (d.label or d.name, seed) not in present:
+                    notes.append(f"{d.label or d.name} seed {seed}: not started")
+    return notes
+
+
+def _best_bodies(frame: pd.DataFrame, designer: str, k: int) -> pd.DataFrame:
+    """The ``k`` best distinct bodies a designer found over all seeds (ties: lower seed, sooner)."""
+    ok = frame[(frame["designer"] == designer) & (frame["status"] == OK)]
+    ranked = ok.sort_values(["reward", "seed", "n_evals"], ascending=[False, True, True], kind="stable")
+    return ranked.drop_duplicates("body_hash").head(k)
+
+
+def _representative_seed(runs: pd.DataFrame, designer: str) -> int:
+    """The seed whose best reward is the (lower) median of the designer's runs."""
+    mine = runs[runs["designer"] == designer].sort_values(["best_reward", "seed"], kind="stable")
+    return int(mine["seed"].iloc[(len(mine) - 1) // 2])
+
+
+def _generation_bests(frame: pd.DataFrame, designer: str, seed: int) -> list[tuple[int, pd.Series | None]]:
+    run = frame[(frame["designer"] == designer) & (frame["seed"] == seed)]
+    out = []
+    for g in sorted(run["generation"].unique()):
+        ok = run[(run["generation"] == g) & (run["status"] == OK)]
+        out.append((int(g), ok.loc[ok["reward"].idxmax()] if len(ok) else None))
+    return out
+
+
+def _body(text: str) -> Body | None:
+    try:
+        return Body.from_text(text)
+    except GdabenchError:
+        return None
+
+
+def _threshold(threshold: float | None, meta: dict[str, Any]) -> tuple[float | None, str]:
+    if threshold is not None:
+        if not math.isfinite(threshold):
+            raise ConfigError(f"--threshold must be a finite number, got {threshold}")
+        return float(threshold), f"{threshold:g} (chosen with --threshold)"
+    optimum = meta.get("env_optimum")
+    if optimum is not None:
+        return float(optimum), f"{float(optimum):g} (the environment's optimum)"
+    return None, "none: the environment has no known optimum; pass --threshold to count evaluations to a reward"
+
+
+def definitions(confidence: float, survivors: int, near_copy: int) -> list[tuple[str, str]]:
+    """What every number of the report means (printed in the HTML and markdown)."""
+    ci = f"{confidence:.0%}"
+    return [
+        ("Evaluation", "one evaluated unique valid body; invalid and duplicate proposals use none."),
+        ("Best reward", f"best reward a run found; the table gives the median over seeds and a {ci} percentile-bootstrap interval of that median (seeds resampled {RESAMPLES} times, fixed resampling seed)."),
+        ("Evaluations to the threshold", "evaluations a run used until its first body scored at least the threshold. Runs that never got there are censored (counted as +inf, 'not reached'), never dropped: a median that reads 'not reached' means half the seeds or more did not get there."),
+        ("Mean best-so-far", "area under the best-so-far curve divided by the number of evaluations (the mean best reward over the run): higher means good bodies were found sooner."),
+        ("Best-so-far band", f"{ci} bootstrap interval of the median over seeds at each evaluation count, resampling whole runs."),
+        ("Reward per generation", "min / mean / max reward of the bodies evaluated in that generation (duplicates and invalid bodies excluded); median over seeds with the inter-quartile range."),
+        ("Wall time", "elapsed time of a run when its last generation was written (the machine may have been shared)."),
+        ("Survivors (diversity)", f"the {survivors} best bodies a run had evaluated before the generation (the GDA's and the thesis GA's rule, applied to every designer so that they are comparable)."),
+        ("Proposal categories", f"by Hamming distance to the nearest survivor: copy (0), near-copy (1-{near_copy} voxels differ), new materials (same occupied voxels as a survivor, other types), novel shape (the rest)."),
+        ("Representative run", "bodies per generation are shown for the seed whose best reward is the median of the designer's seeds."),
+    ]
+
+
+def _best_so_far(
+    frame: pd.DataFrame, designers: list[str], budget: int, confidence: float
+) -> tuple[dict[str, tuple[np.ndarray, ...]], dict[str, int], pd.DataFrame]:
+    """Per designer: median best-so-far curve over seeds with its bootstrap band, and as a table."""
+    x = np.arange(1, budget + 1)
+    curves, seeds, parts = {}, {}, []
+    for d in designers:
+        mine = frame[frame["designer"] == d]
+        matrix = np.array([best_so_far_curve(g, budget) for _, g in mine.groupby("seed", sort=True)])
+        median, low, high = median_band(matrix, confidence=confidence)
+        curves[d], seeds[d] = (x, median, low, high), len(matrix)
+        runs = (~np.isnan(matrix)).sum(axis=0)
+        parts.append(pd.DataFrame({"designer": d, "evaluations": x, "median": median, "ci_low": low, "ci_high": high, "runs": runs}))
+    return curves, seeds, pd.concat(parts, ignore_index=True)
+
+
+def _body_figures(
+    frame: pd.DataFrame, runs: pd.DataFrame, designers: list[str], slugs: dict[str, str]
+) -> tuple[list[Figure], dict[str, tuple[Body, int]]]:
+    """The best bodies of each designer, and the best body of every generation of a representative run.
+
+    Also returns each designer's best body and its seed (what an animation shows).
+    """
+    cells, captions, best_of = [], [], {}
+    for d in designers:
+        top = _best_bodies(frame, d, BEST_BODIES)
+        row = [(_body(r["body"]), f"{r['reward']:.4g} (seed {r['seed']}, #{r['n_evals']})", int(r["seed"])) for _, r in top.iterrows()]
+        row = [c for c in row if c[0] is not None]
+        if row:
+            best_of[d] = (row[0][0], row[0][2])
+        row += [(None, "", -1)] * (BEST_BODIES - len(row))
+        cells += [c[0] for c in row]
+        captions += [c[1] for c in row]
+    figures = [
+        Figure("best_bodies.png", "Best bodies per designer", f"The {BEST_BODIES} best distinct bodies each designer found over all seeds: reward (seed, evaluation number).", plots.png(bodies_figure(cells, captions, ncols=BEST_BODIES, row_labels=designers)))
+    ]  # fmt: skip
+    for d in designers:
+        seed = _representative_seed(runs, d)
+        bests = _generation_bests(frame, d, seed)
+        fig = bodies_figure(
+            [_body(r["body"]) if r is not None else None for _, r in bests],
+            [f"gen {g}: {r['reward']:.4g}" if r is not None else f"gen {g}: -" for g, r in bests],
+            ncols=GENERATION_COLUMNS,
+            title=f"{d}, seed {seed}: best body of each generation",
+        )
+        figures.append(Figure(f"bodies_per_generation_{slugs[d]}.png", f"Best body per generation: {d}", f"Representative run (seed {seed}, the median of the designer's best rewards), as in the thesis's figures 5.8-5.11.", plots.png(fig)))  # fmt: skip
+    return figures, best_of
+
+
+def write_report(
+    run_dir: str | Path,
+    out: str | Path | None = None,
+    *,
+    threshold: float | None = None,
+    survivors: int = SURVIVORS,
+    near_copy: int = NEAR_COPY,
+    animations: bool = True,
+    confidence: float = CONFIDENCE,
+    reg: Registry | None = None,
+) -> Report:
+    """Compute and write the report of ``run_dir``; returns what was written."""
+    if survivors < 1:
+        raise ConfigError(f"--survivors must be at least 1, got {survivors}")
+    if near_copy < 0:
+        raise ConfigError(f"--near-copy must be at least 0, got {near_copy}")
+    if not 0.0 < confidence < 1.0:
+        raise ConfigError(f"confidence must be between 0 and 1, got {confidence}")
+    run, meta, frame, notes = load_run(run_dir)
+    out = Path(out) if out is not None else run.path / REPORT_DIR
+    experiment = _experiment(meta, notes)
+    budget = _budget(experiment, frame)
+    target, target_text = _threshold(threshold, meta)
+    notes += _incomplete_runs(frame, experiment, budget)
+    designers = list(pd.unique(frame["designer"]))
+    taken: set[str] = set()
+    slugs = {d: _slug(d, taken) for d in designers}
+
+    summary = summarize(frame, target, confidence=confidence)
+    runs = per_run(frame, target)
+    headers, rows = summary_cells(summary, confidence)
+    generations = generation_rewards(frame)
+    div = diversity(frame, survivors, near_copy)
+    tables: dict[str, tuple[pd.DataFrame, str]] = {
+        "summary.csv": (summary, "the per-designer table with all its columns"),
+        "runs.csv": (runs, "one row per designer and seed: best reward, evaluations, evaluations to the threshold, mean best-so-far, wall time"),
+        "generations.csv": (generations, "reward per generation (min, mean, max) of every run"),
+    }
+
+    curves, seeds, curve_table = _best_so_far(frame, designers, budget, confidence)
+    tables["best_so_far.csv"] = (curve_table, "median best-so-far reward over seeds at every evaluation count, with its bootstrap interval")
+    tables["diversity.csv"] = (div, "diversity of the proposals of every generation of every run")
+
+    figures_main = [
+        Figure("best_so_far.png", "Best-so-far reward against evaluations", f"All designers; line = median over seeds, band = {confidence:.0%} bootstrap CI of the median.", plots.png(plots.best_so_far_figure(curves, seeds=seeds, threshold=target, confidence=confidence))),
+        Figure("rewards_per_generation.png", "Reward per generation", "Min / mean / max reward of the bodies evaluated in each generation (as in the thesis's figures 5.1-5.7); median over seeds, band = inter-quartile range.", plots.png(plots.generation_rewards_figure(generations, designers))),
+    ]  # fmt: skip
+
+    body_figures, best_of = _body_figures(frame, runs, designers, slugs)
+
+    sections = [
+        Section("Performance", figures_main),
+        Section("Bodies", body_figures, "Colours as in Evolution Gym: rigid black, soft grey, horizontal actuator orange, vertical actuator blue, empty white."),
+    ]
+    if animations and experiment is not None:
+        gifs = _animations(run, experiment, best_of, slugs, notes, reg)
+        if gifs:
+            sections.append(Section("Animations", gifs, "The best body of each designer acting in the environment, replayed with the seed and artifacts of its evaluation."))
+    sections.append(
+        Section(
+            "Diversity of proposals",
+            [
+                Figure("diversity.png", "Diversity per generation", "Share of unique proposals, mean pairwise Hamming distance, and mean distance to the nearest survivor of the previous generation (thesis section 4.5).", plots.png(plots.diversity_figure(div, designers))),
+                Figure("novelty.png", "Near-copies versus novel shapes", "Share of each generation's proposals by distance to the nearest survivor.", plots.png(plots.novelty_figure(div, designers, near_copy))),
+            ],
+        )
+    )  # fmt: skip
+
+    env_name = experiment.env.label if experiment is not None else str(frame["env"].iloc[0])
+    report = Report(
+        run_path=run.path,
+        out=out,
+        title=f"gdabench report: {', '.join(designers)} on {env_name}",
+        facts=_facts(run, meta, experiment, target_text),
+        notes=notes,
+        headers=headers,
+        rows=rows,
+        sections=sections,
+        tables=[(name, what) for name, (_, what) in tables.items()],
+        definitions=definitions(confidence, survivors, near_copy),
+    )
+    _write(report, tables)
+    return report
+
+
+def _animations(
+    run: RunDirectory,
+    experiment: Experiment,
+    best_of: dict[str, tuple[Body, int]],
+    slugs: dict[str, str],
+    notes: list[str],
+    reg: Registry | None,
+) -> list[Figure]:
+    """A GIF of each designer's best body, when the environment can render one."""
+    try:
+        env, controller = build_scorers(experiment, reg or registry())
+    except GdabenchError as exc:
+        notes.append(f"no animations: cannot rebuild the environment ({exc})")
+        return []
+    gifs = []
+    for designer, (body, seed) in best_of.items():
+        try:
+            gif = animate(env, controller, body, run=run, designer=designer, seed=seed)
+        except Exception as exc:  # noqa: BLE001 - a broken renderer must not cost the rest of the report
+            notes.append(f"no animation for {designer}: {type(exc).__name__}: {exc}")
+            continue
+        if gif is None:
+            return gifs  # the environment has nothing to show, for any body
+        gifs.append(Figure(f"animation_{slugs[designer]}.gif", f"{designer}: best body acting", f"Seed {seed}, body {body.text}.", gif, "image/gif"))
+    return gifs
+
+
+def _write(report: Report, tables: dict[str, tuple[pd.DataFrame, str]]) -> None:
+    files = {fig.filename: fig.data for fig in report.figures}
+    files.update({name: table.to_csv(index=False).encode() for name, (table, _) in tables.items()})
+    files["summary.md"] = render_markdown(report).encode()
+    files["report.html"] = render_html(report).encode()
+    try:
+        for name, data in files.items():
+            atomic_write_bytes(report.out / name, data)
+            os.chmod(report.out / name, 0o644)  # a report is for sharing (temporary files start private)
+    except OSError as exc:
+        raise ConfigError(f"cannot write the report to {report.out}: {exc.strerror or exc}") from None

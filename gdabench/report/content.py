@@ -1,0 +1,46 @@
+"""What a report says, independent of how it is shown (HTML page, markdown summary)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+
+@dataclass(frozen=True)
+class Figure:
+    """An image file of the report (PNG plot or GIF animation)."""
+
+    filename: str
+    title: str
+    caption: str
+    data: bytes
+    mime: str = "image/png"
+
+
+@dataclass(frozen=True)
+class Section:
+    """A titled group of figures."""
+
+    title: str
+    figures: list[Figure]
+    intro: str = ""
+
+
+@dataclass
+class Report:
+    """Everything computed for one run directory; written out by :mod:`.html` and :mod:`.markdown`."""
+
+    run_path: Path
+    out: Path
+    title: str
+    facts: list[tuple[str, str]]
+    notes: list[str]
+    headers: list[str]
+    rows: list[list[str]]
+    sections: list[Section] = field(default_factory=list)
+    tables: list[tuple[str, str]] = field(default_factory=list)  # (file name, what it holds)
+    definitions: list[tuple[str, str]] = field(default_factory=list)
+
+    @property
+    def figures(self) -> list[Figure]:
+        return [f for s in self.sections for f in s.figures]

@@ -1,0 +1,60 @@
+"""The per-designer table as text cells, shared by the terminal, the markdown and the HTML report.
+
+Formatting lives in one place so that the three views of a run can never disagree.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+
+from .stats import CONFIDENCE
+
+NOT_REACHED = "not reached"
+
+
+def number(value: float, digits: int = 4) -> str:
+    """A number for a table: ``-`` for missing, ``not reached`` for a censored (+inf) time."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "-"
+    if value == math.inf:
+        return NOT_REACHED
+    return f"{value:.{digits}g}"
+
+
+def with_interval(median: float, low: float, high: float, digits: int = 4) -> str:
+    """``median [low, high]``, or just the median when the interval is a single point."""
+    if low == high == median or (math.isnan(low) and math.isnan(high)):
+        return number(median, digits)
+    return f"{number(median, digits)} [{number(low, digits)}, {number(high, digits)}]"
+
+
+def has_threshold(summary: pd.DataFrame) -> bool:
+    return bool(len(summary)) and bool(summary["threshold"].notna().any())
+
+
+def summary_cells(summary: pd.DataFrame, confidence: float = CONFIDENCE) -> tuple[list[str], list[list[str]]]:
+    """Headers and rows of the per-designer table built from :func:`gdabench.summary.summarize`."""
+    ci = f"median [{confidence:.0%} CI]"
+    headers = ["designer", "env", "seeds", f"best reward, {ci}"]
+    threshold = has_threshold(summary)
+    if threshold:
+        target = number(float(summary["threshold"].dropna().iloc[0]))
+        headers += [f"seeds reaching {target}", f"evaluations to {target}, {ci}"]
+    headers += [f"mean best-so-far, {ci}", "wall time s, median"]
+    rows = []
+    for _, r in summary.iterrows():
+        env = r["env"] + (f" / {r['controller']}" if r["controller"] else "")
+        cells = [str(r["designer"]), env, str(r["seeds"]), with_interval(r["best_median"], r["best_ci_low"], r["best_ci_high"])]
+        if threshold:
+            cells += [
+                f"{r['seeds_reached']}/{r['seeds']}",
+                with_interval(r["evals_to_threshold_median"], r["evals_to_threshold_ci_low"], r["evals_to_threshold_ci_high"], digits=6),
+            ]
+        cells += [
+            with_interval(r["mean_best_so_far_median"], r["mean_best_so_far_ci_low"], r["mean_best_so_far_ci_high"]),
+            f"{r['wall_seconds_median']:.1f}",
+        ]
+        rows.append(cells)
+    return headers, rows

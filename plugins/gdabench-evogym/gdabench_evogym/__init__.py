@@ -1,0 +1,1 @@
+"""Evolution Gym 2.0's tasks as gdabench environments."""

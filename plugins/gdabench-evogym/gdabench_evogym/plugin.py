@@ -1,0 +1,19 @@
+"""Hooks: one gdabench environment ``evogym/<task id>`` per Evolution Gym task."""
+
+import gdabench
+
+from .tasks import TASKS
+
+
+@gdabench.hookimpl
+def gdabench_environments():
+    return [
+        gdabench.EnvironmentSpec(
+            name=f"evogym/{task}",
+            factory="gdabench_evogym.env:EvogymTask",
+            description=f"Evolution Gym 2.0's {task} (C++ simulator), scored by a controller",
+            defaults={"task": task},
+            requires_controller=True,
+        )
+        for task in TASKS
+    ]

@@ -1,0 +1,76 @@
+"""The Evolution Gym plugin against the real simulator (skipped when it is not installed)."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+with contextlib.redirect_stdout(io.StringIO()):
+    evogym = pytest.importorskip("evogym", reason="Evolution Gym is not installed: build it with plugins/gdabench-evogym/install.sh")
+
+import gdabench  # noqa: E402
+from gdabench.body import Body, is_valid  # noqa: E402
+from gdabench.testing import check_environment  # noqa: E402
+from gdabench_evogym.env import EvogymTask  # noqa: E402
+from gdabench_evogym.tasks import TASKS  # noqa: E402
+
+WALKER_BODY = Body.from_text("33333/31113/31013/31013/31013")
+
+
+def test_every_evolution_gym_task_is_registered():
+    assert TASKS == tuple(evogym.BASELINE_ENV_NAMES)
+    reg = gdabench.registry()
+    for task in TASKS:
+        item = reg.get("environment", f"evogym/{task}")
+        assert item.distribution == "gdabench-evogym" and item.spec.requires_controller
+
+
+def test_validity_is_evolution_gyms_and_agrees_with_gdabench():
+    env = EvogymTask()
+    rng = np.random.default_rng(0)
+    for _ in range(300):
+        grid = rng.choice(5, size=(5, 5), p=[0.5, 0.125, 0.125, 0.125, 0.125]).astype(np.int8)
+        assert (env.invalid_reason(Body(grid)) is None) == is_valid(grid)
+
+
+def test_actuator_voxels_follow_action_order():
+    env = EvogymTask().make_env(WALKER_BODY)
+    act = env.unwrapped.actuator_voxels
+    assert len(act) == env.action_space.shape[0] == int(np.isin(WALKER_BODY.voxels, (3, 4)).sum())
+    assert all(WALKER_BODY.voxels[r, c] == code for r, c, code in act)
+    assert [r * 5 + c for r, c, _ in act] == sorted(r * 5 + c for r, c, _ in act)
+
+
+def test_open_loop_drives_the_actuators_deterministically():
+    check_environment(EvogymTask, controller=gdabench.make_controller("open-loop", trials=1), bodies=3)
+    body = Body.from_text("00000/33333/33333/30003/30003")
+    moving = EvogymTask().evaluate(body, seed=0, controller=gdabench.make_controller("open-loop", trials=1)).reward
+    still = EvogymTask().evaluate(body, seed=0, controller=gdabench.make_controller("open-loop", trials=1, amplitude=0.0, center=1.0)).reward
+    assert abs(still) < 0.2 < abs(moving)  # the muscles, found through actuator_voxels, move the body
+
+
+def test_compare_end_to_end(tmp_path):
+    out = tmp_path / "run"
+    cmd = [sys.executable, "-m", "gdabench", "compare", "--designers", "ga,random", "--env", "evogym/Walker-v0",
+           "--controller", "open-loop", "-C", "trials=1", "--budget", "30", "--seeds", "0", "--out", str(out), "-q", "--no-report"]  # fmt: skip
+    result = subprocess.run(cmd, capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    meta = json.loads((out / "run.json").read_text())
+    assert meta["status"] == "complete" and meta["versions"]["plugins"]["gdabench-evogym"] == "0.1.0"
+
+
+def test_ppo_trains_on_evolution_gym(tmp_path):
+    """PPO (TorchRL) drives Evolution Gym's own Gymnasium environment; its saved policy replays."""
+    ppo = gdabench.make_controller("ppo", timesteps=256, eval_interval=128)
+    body = Body.from_text("00000/33333/33333/30003/30003")
+    first = EvogymTask().evaluate(body, seed=1, controller=ppo, workdir=tmp_path / "policy")
+    assert math.isfinite(first.reward) and (tmp_path / "policy").is_dir()
+    again = EvogymTask().evaluate(body, seed=1, controller=ppo, workdir=tmp_path / "policy")
+    assert again.reward == first.reward and again.info.get("replayed") == 1

@@ -1,0 +1,123 @@
+"""The command line through typer's runner: the main commands and one-line errors."""
+
+from __future__ import annotations
+
+import json
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from gdabench.cli import app
+from gdabench.config import parse_seeds
+from gdabench.errors import ConfigError
+
+runner = CliRunner()
+
+
+def invoke(*args: str):
+    return runner.invoke(app, list(args), catch_exceptions=False, env={"COLUMNS": "200"})
+
+
+def test_list_shows_builtins_with_package():
+    result = invoke("list")
+    assert result.exit_code == 0
+    assert "ga" in result.stdout and "random" in result.stdout and "simple" in result.stdout
+    assert "gdabench 0.1.0" in result.stdout
+    assert invoke("list", "designers").exit_code == 0
+    bad = invoke("list", "robots")
+    assert bad.exit_code == 2 and "unknown kind 'robots'" in bad.stderr
+
+
+def test_compare_writes_run_and_prints_summary(tmp_path):
+    out = tmp_path / "run"
+    result = invoke("compare", "--designers", "ga,random", "--env", "simple", "--seeds", "0,1", "--budget", "100", "--out", str(out), "-q")
+    assert result.exit_code == 0, result.stderr
+    assert "summary" in result.stdout and "ga" in result.stdout and "seeds reaching 100" in result.stdout
+    df = pd.read_parquet(out / "evaluations.parquet")
+    assert set(df["designer"]) == {"ga", "random"} and set(df["seed"]) == {0, 1}
+    assert (df.groupby(["designer", "seed"])["n_evals"].max() == 100).all()
+    meta = json.loads((out / "run.json").read_text())
+    assert meta["status"] == "complete" and meta["config"]["budget"] == 100
+    report = invoke("report", str(out))
+    assert report.exit_code == 0 and "random" in report.stdout
+
+
+def test_run_with_designer_params_and_repetitions(tmp_path):
+    out = tmp_path / "run"
+    result = invoke("run", "ga[survivors=5]", "--repetitions", "2", "--budget", "75", "--out", str(out), "-q")
+    assert result.exit_code == 0, result.stderr
+    df = pd.read_parquet(out / "evaluations.parquet")
+    assert set(df["designer"]) == {"ga[survivors=5]"} and set(df["seed"]) == {0, 1}
+    assert list(df[df.seed == 0].groupby("generation").size()[:3]) == [25, 20, 20]  # 5 survivors kept
+    out2 = tmp_path / "run2"
+    result = invoke("compare", "-d", "ga,random", "-D", "ga.survivors=5", "--budget", "50", "--out", str(out2), "-q")
+    assert result.exit_code == 0, result.stderr
+    df2 = pd.read_parquet(out2 / "evaluations.parquet")
+    assert json.loads(df2[df2.designer == "ga"]["designer_params"].iloc[0]) == {"survivors": 5}
+
+
+def test_evaluate_scores_one_body():
+    result = invoke("evaluate", "44444/44444/44444/44444/44444")
+    assert result.exit_code == 0 and result.stdout.strip() == "100"
+
+
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["compare", "--designers", "ga,nope"], "unknown designer 'nope'; known designers:"),
+        (["compare", "--designers", "ga", "--env", "nope"], "unknown environment 'nope'"),
+        (["compare", "--designers", "ga", "--population", "0"], "population must be at least 1"),
+        (["compare", "--designers", "ga", "--budget", "10"], "budget (10) must be at least the population (25)"),
+        (["compare", "--designers", "ga", "-D", "survivors=40"], "survivors must be between 1 and population - 1"),
+        (["compare", "--designers", "ga", "--seeds", "a,b"], "malformed seeds"),
+        (["compare", "--designers", "ga", "--shape", "5by5"], "malformed shape"),
+        (["compare", "--designers", "ga", "--controller", "ppo"], "takes no controller"),
+        (["evaluate", "44444/4444x"], "malformed body text"),
+        (["evaluate", "11111/11111"], "is invalid for 'simple': no actuator"),
+        (["compare"], "give --designers"),
+    ],
+)
+def test_bad_input_is_one_line_and_nonzero(tmp_path, args, fragment):
+    out = tmp_path / "run"
+    result = invoke(*args, "--out", str(out)) if args[0] == "compare" else invoke(*args)
+    assert result.exit_code == 2
+    lines = [l for l in result.stderr.splitlines() if l.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], result.stderr
+    assert "Traceback" not in result.stdout + result.stderr
+    assert not out.exists()
+
+
+def test_report_on_non_run_directory(tmp_path):
+    result = invoke("report", str(tmp_path))
+    assert result.exit_code == 2 and "is not a gdabench run" in result.stderr
+
+
+def test_resume_continues_a_killed_run(tmp_path):
+    from gdabench import Experiment, PluginChoice, compare
+
+    class Killed(Exception):
+        pass
+
+    def kill(report):
+        if report.designer == "random" and report.generation == 2:
+            raise Killed
+
+    exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), env=PluginChoice("simple"), budget=100)
+    with pytest.raises(Killed):
+        compare(exp, tmp_path / "run", on_generation=kill)
+    assert json.loads((tmp_path / "run" / "run.json").read_text())["status"] == "failed"
+    result = invoke("compare", "--resume", str(tmp_path / "run"), "-q")
+    assert result.exit_code == 0, result.stderr
+    resumed = pd.read_parquet(tmp_path / "run" / "evaluations.parquet")
+    reference = compare(exp, tmp_path / "ref").load_evaluations()
+    pd.testing.assert_frame_equal(resumed[["designer", "body", "reward"]], reference[["designer", "body", "reward"]])
+    assert not (tmp_path / "run" / "pending").exists() and not (tmp_path / "run" / "checkpoints").exists()
+
+
+def test_parse_seeds():
+    assert parse_seeds("0,1,2") == [0, 1, 2] and parse_seeds("0..3") == [0, 1, 2, 3] and parse_seeds("4") == [4]
+    assert parse_seeds(None) == [0] and parse_seeds(None, repetitions=3) == [0, 1, 2]
+    for bad in ("1..0", "-1", "0,0"):
+        with pytest.raises(ConfigError):
+            parse_seeds(bad)

@@ -1,0 +1,41 @@
+"""The script that builds issue 10's designers x landscapes table."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "landscape_table.py"
+
+
+@pytest.fixture(scope="module")
+def table():
+    spec = importlib.util.spec_from_file_location("landscape_table", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_runs_each_pair_once_and_prints_a_row_per_pair(table, tmp_path, capsys):
+    args = ["--designers", "ga,random", "--envs", "nk[k=1],target", "--seeds", "0,1", "--budget", "40", "--population", "10"]
+    assert table.main([*args, "--root", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    rows = [line for line in out.splitlines() if line.startswith("| nk") or line.startswith("| target")]
+    assert [r.split(" | ")[2] for r in rows] == ["ga", "random", "ga", "random"]
+    assert all("/2 |" in r for r in rows)  # seeds at optimum out of 2
+    assert "| target | 100 |" in out
+    stamp = (tmp_path / "nk_k=1" / "ga" / "evaluations.parquet").stat().st_mtime_ns
+    assert table.main([*args, "--root", str(tmp_path)]) == 0  # complete runs are not redone
+    assert (tmp_path / "nk_k=1" / "ga" / "evaluations.parquet").stat().st_mtime_ns == stamp
+    assert capsys.readouterr().out == out
+
+
+def test_refuses_to_mix_settings_and_reports_unknown_designers(table, tmp_path, capsys):
+    base = ["--envs", "target", "--seeds", "0", "--population", "10", "--root", str(tmp_path)]
+    assert table.main(["--designers", "random", "--budget", "20", *base]) == 0
+    assert table.main(["--designers", "random", "--budget", "30", *base]) == 2
+    assert "other settings" in capsys.readouterr().err
+    assert table.main(["--designers", "random,nosuch", "--budget", "20", *base]) == 2
+    assert "unknown designer 'nosuch'" in capsys.readouterr().err

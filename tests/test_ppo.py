@@ -1,0 +1,200 @@
+"""The ``ppo`` controller: learning, action range, seeding, saved policies, bad input.
+
+Budgets are a few rollouts so that the whole file stays fast; what the controller reaches with
+real budgets is measured by ``benchmarks/ppo_vs_sb3.py``.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import subprocess
+import sys
+
+import gymnasium
+import numpy as np
+import pytest
+import torch
+from typer.testing import CliRunner
+
+from gdabench.body import as_body
+from gdabench.cli import app
+from gdabench.controllers.ppo import PPO, PPOConfig, replay
+from gdabench.controllers.ppo.evaluation import episode_score
+from gdabench.controllers.ppo.networks import ActorCritic
+from gdabench.controllers.ppo.policy_file import META_FILE, WEIGHTS_FILE
+from gdabench.controllers.ppo.train import train
+from gdabench.controllers.ppo.update import MinibatchUpdate, ppo_loss
+from gdabench.envs.walker.env import Walker, make_walker
+from gdabench.envs.walker.sim import WalkerPhysics
+from gdabench.errors import ConfigError
+
+WALKER = as_body("00000/44444/44444/40004/40004")
+SMALL = dict(timesteps=256, eval_interval=128)  # two rollouts, three evaluations
+
+
+class Target(gymnasium.Env):
+    """A one-step task: reward 5 - sum((action - 1.3)^2), actions in [0.6, 1.6].
+
+    SB3's initial policy has its mean near 0, so at first most clipped actions are 0.6; learning
+    moves the mean up, and the value function has the constant part of the reward to learn."""
+
+    def __init__(self, n_act: int = 2):
+        self.observation_space = gymnasium.spaces.Box(-1.0, 1.0, (3,), np.float64)
+        self.action_space = gymnasium.spaces.Box(0.6, 1.6, (n_act,), np.float64)
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        return np.array([1.0, 0.0, -1.0]), {}
+
+    def step(self, action):
+        return np.array([1.0, 0.0, -1.0]), 5.0 - float(np.sum((np.asarray(action) - 1.3) ** 2)), True, False, {}
+
+
+class ActionLog(gymnasium.Wrapper):
+    """Records every action the environment receives."""
+
+    log: list[np.ndarray] = []
+
+    def step(self, action):
+        ActionLog.log.append(np.array(action, dtype=float))
+        return self.env.step(action)
+
+
+def test_loss_decreases_and_reward_rises_on_a_toy_task():
+    config = PPOConfig(timesteps=128 * 8, eval_interval=128 * 2, n_evals=8, learning_rate=1e-3, episode_end="full")
+    result = train(config, Target, seed=0, device=torch.device("cpu"), compiled=False)
+    total, value = np.array(result.losses).T
+    assert len(total) == 8 and np.isfinite(total).all()
+    assert total[-2:].mean() < 0.25 * total[0] and value[-2:].mean() < 0.25 * value[0]
+    first, last = result.evaluations[0].mean, result.evaluations[-1].mean
+    assert last > first
+    assert result.reward == max(e.mean for e in result.evaluations)
+    mean_action = result.nets.policy.mean(torch.tensor([[1.0, 0.0, -1.0]]))
+    assert (mean_action > 0.1).all()  # moved up from about 0, towards the range
+
+
+def test_actions_stay_inside_the_actuator_range():
+    ActionLog.log = []
+    make_env = lambda: ActionLog(make_walker(WALKER))  # noqa: E731
+    PPO(**SMALL).evaluate(make_env, seed=1)
+    actions = np.concatenate(ActionLog.log)
+    assert len(ActionLog.log) >= 256
+    assert actions.min() >= 0.6 and actions.max() <= 1.6
+    assert (actions == 0.6).any() and (actions > 0.6).any()  # the Gaussian does leave the range: clipping is exercised
+
+
+def test_same_seed_same_reward_and_the_caller_rng_is_untouched():
+    walker = Walker()
+    torch.manual_seed(123)
+    before = torch.rand(1)
+    torch.manual_seed(123)
+    a = walker.evaluate(WALKER, seed=7, controller=PPO(**SMALL))
+    assert torch.rand(1) == before
+    b = walker.evaluate(WALKER, seed=7, controller=PPO(**SMALL))
+    c = walker.evaluate(WALKER, seed=8, controller=PPO(**SMALL))
+    assert a.reward == b.reward and a.info["env_steps"] == 256
+    assert c.reward != a.reward
+
+
+def test_saved_policy_reloads_and_reproduces_its_reward(tmp_path):
+    walker, controller = Walker(), PPO(**SMALL)
+    scored = walker.evaluate(WALKER, seed=3, controller=controller, workdir=tmp_path)
+    assert (tmp_path / WEIGHTS_FILE).is_file() and (tmp_path / META_FILE).is_file()
+    meta = json.loads((tmp_path / META_FILE).read_text())
+    assert meta["reward"] == scored.reward and len(meta["evaluations"]) == 3 and meta["timesteps"] == 256
+
+    assert replay(tmp_path, functools.partial(make_walker, WALKER)) == scored.reward
+    again = walker.evaluate(WALKER, seed=3, controller=PPO(**SMALL), workdir=tmp_path)
+    assert again.reward == scored.reward and again.info["replayed"] == 1
+    frames = walker.render_frames(WALKER, seed=3, controller=controller, workdir=tmp_path)
+    assert frames and frames[0].ndim == 3
+    retrained = walker.evaluate(WALKER, seed=3, controller=PPO(timesteps=256, eval_interval=256), workdir=tmp_path)
+    assert retrained.info["replayed"] == 0  # other settings: trained anew, and the new policy saved
+    assert json.loads((tmp_path / META_FILE).read_text())["trained_with"]["settings"]["eval_interval"] == 256
+
+
+def test_an_unstable_body_is_scored_not_crashed():
+    exploding = functools.partial(make_walker, WALKER, physics=WalkerPhysics(max_speed=1e-9))
+    out = PPO(timesteps=256, episode_end="full").evaluate(exploding, seed=0)
+    assert out.reward == -3.0  # every episode ends unstable after one step
+    assert out.info["ppo_unstable_episodes"] >= 256
+
+
+def test_episode_end_conventions():
+    assert episode_score([0.5, 0.25, 1.0], "full") == 1.75
+    assert episode_score([0.5, 0.25, 1.0], "evogym2") == 0.75  # Evolution Gym 2.0 drops the last step's reward
+
+
+@pytest.mark.slow  # compiling takes 10-60 s on a loaded 2-core machine
+def test_compiled_step_matches_the_eager_step():
+    def one_step(compiled: bool) -> dict[str, torch.Tensor]:
+        torch.manual_seed(0)
+        nets = ActorCritic(5, 2)
+        loss = ppo_loss(nets, clip_range=0.1, vf_coef=0.5, ent_coef=0.01)
+        update = MinibatchUpdate(nets, loss, learning_rate=1e-2, max_grad_norm=0.5, compiled=compiled)
+        g = torch.Generator().manual_seed(1)
+        batch = [torch.randn(4, 5, generator=g), torch.randn(4, 2, generator=g), torch.randn(4, generator=g), torch.randn(4, 1, generator=g), torch.randn(4, 1, generator=g)]
+        for _ in range(3):
+            update(*batch)
+        update.release()
+        return {k: v.detach().clone() for k, v in nets.state_dict().items()}
+
+    eager, compiled = one_step(False), one_step(True)
+    assert not torch.equal(eager["policy.log_std"], torch.zeros(2))  # the steps did change the parameters
+    for key in eager:
+        torch.testing.assert_close(compiled[key], eager[key], rtol=1e-4, atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    "params, message",
+    [
+        (dict(timesteps=100), "less than one rollout"),
+        (dict(timesteps=512, n_envs=8), "less than one rollout"),
+        (dict(learning_rate=-1e-3), "learning_rate must be positive"),
+        (dict(device="tpu"), "unknown device 'tpu'"),
+        (dict(device="quantum:0"), "unknown device"),
+        (dict(clip_range=0), "clip_range"),
+        (dict(episode_end="sometimes"), "episode_end"),
+        (dict(wings=2), "unexpected keyword"),
+    ],
+)
+def test_bad_settings_fail_at_configuration_in_one_line(params, message):
+    with pytest.raises(ConfigError, match=message) as err:
+        PPO(**params)
+    assert "\n" not in str(err.value)
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="checks the message on a machine without a GPU")
+def test_asking_for_a_missing_gpu_is_one_line():
+    with pytest.raises(ConfigError, match="no CUDA GPU"):
+        PPO(device="cuda")
+
+
+def test_cli_rejects_bad_settings_before_running(tmp_path):
+    result = CliRunner().invoke(
+        app, ["compare", "--designers", "ga", "--env", "walker", "--controller", "ppo", "-C", "learning_rate=-1", "--out", str(tmp_path / "r"), "-q"]
+    )
+    assert result.exit_code == 2
+    assert "learning_rate must be positive" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_listing_controllers_does_not_import_torchrl():
+    code = "import sys; from gdabench.plugins import registry; names = [i.name for i in registry().items('controller')]; print('ppo' in names, 'torchrl' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["True", "False"]
+
+
+def test_compare_with_ppo_saves_policies_and_replay_uses_them(tmp_path):
+    run = tmp_path / "run"
+    args = ["compare", "--designers", "random", "--env", "walker", "--controller", "ppo", "-C", "timesteps=128", "--budget", "2", "--population", "2"]
+    result = CliRunner().invoke(app, [*args, "--out", str(run), "-q", "--no-report"], catch_exceptions=False)
+    assert result.exit_code == 0, result.stderr
+    policies = sorted(run.glob("artifacts/*/*/" + WEIGHTS_FILE))
+    assert len(policies) == 2
+    gif = tmp_path / "best.gif"
+    replayed = CliRunner().invoke(app, ["replay", str(run), "--gif", str(gif)], catch_exceptions=False)
+    assert replayed.exit_code == 0, replayed.stderr
+    assert "reward" in replayed.stdout and gif.read_bytes()[:3] == b"GIF"
+    missing = CliRunner().invoke(app, ["replay", str(run), "--body", "ffffffffffff"])
+    assert missing.exit_code == 2 and "no scored body with hash" in missing.stderr

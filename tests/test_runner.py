@@ -1,0 +1,247 @@
+"""The harness loop: budget, validity, de-duplication, failures, determinism, resume, schema."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from gdabench import Designer, DesignerSpec, Environment, EnvironmentSpec, Experiment, PluginChoice, hookimpl
+from gdabench.body import Body
+from gdabench.errors import ConfigError, DesignerError
+from gdabench.plugins import Registry
+from gdabench.results import COLUMNS, RunDirectory
+from gdabench.runner import compare
+
+A, B, C, D = "33/00", "44/00", "34/30", "43/03"
+INVALID = "11/11"
+
+
+class Scripted(Designer):
+    """Proposes fixed generations of body texts and records what it is told."""
+
+    told: list = []
+    fail_at: dict = {}
+
+    def __init__(self, *, script=(), fail_ask_at=-1, **kw):
+        super().__init__(**kw)
+        self.script, self.fail_ask_at, self.generation = [list(g) for g in script], fail_ask_at, 0
+
+    def ask(self):
+        if self.generation == self.fail_ask_at and not Scripted.fail_at.get("done"):
+            Scripted.fail_at["done"] = True
+            raise RuntimeError("boom in ask")
+        gen = self.script[min(self.generation, len(self.script) - 1)]
+        return [Body.from_text(t) for t in gen]
+
+    def tell(self, bodies, rewards):
+        Scripted.told.append(([b.text for b in bodies], list(rewards)))
+        self.generation += 1
+
+
+class Flaky(Environment):
+    """Sum of codes, except chosen bodies raise or return NaN."""
+
+    def __init__(self, *, raise_on=(), nan_on=(), **kw):
+        super().__init__(**kw)
+        self.raise_on, self.nan_on = set(raise_on), set(nan_on)
+
+    def evaluate(self, body, *, seed, controller=None, workdir=None):
+        if body.text in self.raise_on:
+            raise ValueError("simulated failure\nsecond line")
+        if body.text in self.nan_on:
+            return math.nan
+        return float(body.voxels.sum())
+
+
+class FakePlugin:
+    @hookimpl
+    def gdabench_designers(self):
+        return [
+            DesignerSpec("scripted", Scripted, "test designer"),
+            DesignerSpec("scripted-ab", Scripted, "a variant: defaults fill in parameters", defaults={"script": [[A, B]]}),
+        ]
+
+    @hookimpl
+    def gdabench_environments(self):
+        return [EnvironmentSpec("flaky", Flaky, "test env")]
+
+
+@pytest.fixture
+def reg():
+    Scripted.told.clear()
+    Scripted.fail_at.clear()
+    return Registry(entry_points=False, extra_plugins={"fake": FakePlugin()})
+
+
+def scripted(script, env="flaky", budget=4, population=4, seeds=(0,), **env_params):
+    params = {"script": script}
+    return Experiment(
+        designers=(PluginChoice("scripted", params, "scripted"),),
+        env=PluginChoice(env, env_params, env),
+        shape=(2, 2),
+        population=population,
+        budget=budget,
+        seeds=seeds,
+    )
+
+
+def test_invalid_and_duplicates_are_recorded_not_evaluated(tmp_path, reg):
+    exp = scripted([[A, INVALID, A, B], [A, C], [D]], budget=4)
+    run = compare(exp, tmp_path / "run", reg=reg)
+    df = run.load_evaluations()
+    assert list(df["status"]) == ["ok", "invalid", "duplicate", "ok", "duplicate", "ok", "ok"]
+    assert list(df["n_evals"]) == [1, 1, 1, 2, 2, 3, 4]
+    assert df.loc[1, "message"] == "no actuator" and math.isnan(df.loc[1, "reward"])
+    assert df.loc[2, "reward"] == df.loc[0, "reward"] == df.loc[4, "reward"] == 6.0
+    assert list(df["best_so_far"]) == [6, 6, 6, 8, 8, 10, 10]
+    # the designer is told every body it proposed, in order; nan for the invalid one
+    bodies, rewards = Scripted.told[0]
+    assert bodies == [A, INVALID, A, B]
+    assert rewards[0] == 6 and math.isnan(rewards[1]) and rewards[2:] == [6, 8]
+    assert len(Scripted.told) == 2  # the last generation exhausts the budget and is not told
+    assert run.meta["status"] == "complete"
+
+
+def test_spec_defaults_define_variants_and_are_recorded(tmp_path, reg):
+    exp = Experiment(designers=(PluginChoice("scripted-ab"),), env=PluginChoice("flaky"), shape=(2, 2), population=2, budget=2)
+    df = compare(exp, tmp_path / "run", reg=reg).load_evaluations()
+    assert list(df["body"]) == [A, B]
+    assert json.loads(df["designer_params"].iloc[0]) == {"script": [[A, B]]}
+    bad = Experiment(designers=(PluginChoice("scripted-ab", {"nope": 1}),), env=PluginChoice("flaky"), shape=(2, 2), population=2, budget=2)
+    with pytest.raises(ConfigError, match="has no parameter 'nope'"):
+        compare(bad, tmp_path / "bad", reg=reg)
+
+
+def test_budget_truncates_last_generation(tmp_path, reg):
+    exp = Experiment(designers=(PluginChoice("random"),), env=PluginChoice("simple"), population=25, budget=30)
+    df = compare(exp, tmp_path / "run").load_evaluations()
+    assert len(df) == 30 and df["n_evals"].max() == 30 and list(df.groupby("generation").size()) == [25, 5]
+
+
+def test_failed_evaluations_are_rows_and_use_budget(tmp_path, reg):
+    exp = scripted([[A, B], [C, D]], budget=4, raise_on=[B], nan_on=[C])
+    df = compare(exp, tmp_path / "run", reg=reg).load_evaluations()
+    assert list(df["status"]) == ["ok", "error", "error", "ok"]
+    assert df.loc[1, "message"] == "ValueError: simulated failure"
+    assert "non-finite" in df.loc[2, "message"]
+    assert list(df["n_evals"]) == [1, 2, 3, 4]
+
+
+def test_designer_failure_leaves_resumable_run(tmp_path, reg):
+    script = [[A, B], [C], [D], ["34/00"], ["43/00"]]
+    exp = Experiment(
+        designers=(PluginChoice("scripted", {"script": script, "fail_ask_at": 2}, "scripted"),),
+        env=PluginChoice("flaky"),
+        shape=(2, 2),
+        population=2,
+        budget=6,
+    )
+    with pytest.raises(DesignerError, match="raised in ask\\(\\): RuntimeError: boom in ask"):
+        compare(exp, tmp_path / "run", reg=reg)
+    run = RunDirectory.open(tmp_path / "run")
+    assert run.meta["status"] == "failed" and "boom" in run.meta["error"]
+    partial = run.load_evaluations()
+    assert sorted(partial["generation"].unique()) == [0, 1]
+    resumed = compare(None, tmp_path / "run", resume=True, reg=reg).load_evaluations()
+    Scripted.fail_at["done"] = True  # the reference run does not fail
+    reference = compare(exp, tmp_path / "ref", reg=reg).load_evaluations()
+    cols = ["generation", "index", "body", "reward", "status", "n_evals", "best_so_far"]
+    pd.testing.assert_frame_equal(resumed[cols], reference[cols])
+    assert RunDirectory.open(tmp_path / "run").meta["status"] == "complete"
+
+
+class Killed(Exception):
+    pass
+
+
+def test_resume_after_kill_between_rows_and_checkpoint(tmp_path):
+    """A kill after a generation's rows hit the disk but before its checkpoint: redone, not doubled."""
+    exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), env=PluginChoice("simple"), budget=150, seeds=(0, 1))
+    full = compare(exp, tmp_path / "full").load_evaluations()
+
+    def kill(report):
+        if (report.designer, report.seed, report.generation) == ("ga", 1, 3):
+            raise Killed
+
+    with pytest.raises(Killed):
+        compare(exp, tmp_path / "crash", on_generation=kill)
+    partial = RunDirectory.open(tmp_path / "crash").load_evaluations()
+    assert partial[(partial.designer == "ga") & (partial.seed == 1)]["generation"].max() == 3
+    assert RunDirectory.open(tmp_path / "crash").load_checkpoint("ga", 1).next_generation == 3
+    resumed = compare(None, tmp_path / "crash", resume=True).load_evaluations()
+    cols = ["designer", "seed", "generation", "index", "body", "reward", "n_evals", "best_so_far"]
+    key = ["seed", "designer", "generation", "index"]
+    a = resumed[cols].sort_values(key).reset_index(drop=True)
+    b = full[cols].sort_values(key).reset_index(drop=True)
+    pd.testing.assert_frame_equal(a, b)
+
+
+def test_same_command_same_table(tmp_path):
+    exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), env=PluginChoice("simple"), budget=200, seeds=(0, 1, 2))
+    a = compare(exp, tmp_path / "a").load_evaluations()
+    b = compare(exp, tmp_path / "b").load_evaluations()
+    timing = ["run_id", "eval_seconds", "design_seconds", "elapsed_seconds", "timestamp"]
+    pd.testing.assert_frame_equal(a.drop(columns=timing), b.drop(columns=timing))
+    # every evaluated body is valid and unique within its (designer, seed) run
+    ok = a[a["status"] == "ok"]
+    assert ok.groupby(["designer", "seed"])["body_hash"].apply(lambda s: s.is_unique).all()
+    assert all(Body.from_text(t).is_valid for t in ok["body"])
+    # common random numbers: ga and random share generation 0 under the same seed
+    g0 = a[a["generation"] == 0]
+    assert list(g0[(g0.designer == "ga") & (g0.seed == 1)]["body"]) == list(g0[(g0.designer == "random") & (g0.seed == 1)]["body"])
+
+
+def test_results_schema_and_run_json(tmp_path):
+    exp = Experiment(designers=(PluginChoice("ga", {"survivors": 5}, "ga[survivors=5]"),), env=PluginChoice("simple"), budget=60)
+    run = compare(exp, tmp_path / "run", command=["gdabench", "compare"])
+    df = run.load_evaluations()
+    assert list(df.columns[: len(COLUMNS)]) == [c for c in COLUMNS if c in df.columns[: len(COLUMNS)]]
+    assert set(COLUMNS) <= set(df.columns)
+    assert (df["designer"] == "ga[survivors=5]").all() and (df["designer_name"] == "ga").all()
+    assert json.loads(df["designer_params"].iloc[0]) == {"survivors": 5}
+    assert all(Body.from_text(t).hash == h for t, h in zip(df["body"], df["body_hash"]))
+    assert df["n_evals"].is_monotonic_increasing and df["best_so_far"].is_monotonic_increasing
+    assert np.array_equal(df["best_so_far"], df["reward"].cummax())
+    meta = run.meta
+    assert meta["status"] == "complete" and meta["command"] == ["gdabench", "compare"]
+    assert meta["env_optimum"] == 100.0
+    assert meta["versions"]["gdabench"] and meta["versions"]["numpy"] and "gdabench" in meta["versions"]["plugins"]
+    assert Experiment.from_json(meta["config"]) == exp
+    summary = pd.read_csv(run.path / "summary.csv")
+    assert summary.loc[0, "best_median"] == df["reward"].max()
+
+
+def test_stuck_designer_is_stopped(tmp_path, reg):
+    exp = scripted([[A], [A]], budget=10, population=1)
+    with pytest.raises(DesignerError, match="proposed no new valid body in 20 generations"):
+        compare(exp, tmp_path / "run", reg=reg)
+
+
+@pytest.mark.parametrize(
+    "exp, fragment",
+    [
+        (Experiment(designers=(PluginChoice("nope"),), env=PluginChoice("simple")), "unknown designer 'nope'; known designers: "),
+        (Experiment(designers=(PluginChoice("ga"),), env=PluginChoice("simpel")), "Did you mean 'simple'"),
+        (Experiment(designers=(PluginChoice("ga"),), env=PluginChoice("simple"), population=0), "population must be at least 1"),
+        (Experiment(designers=(PluginChoice("ga"),), env=PluginChoice("simple"), budget=10), "budget (10) must be at least the population (25)"),
+        (Experiment(designers=(PluginChoice("ga", {"survivors": 30}),), env=PluginChoice("simple")), "survivors must be between"),
+        (Experiment(designers=(PluginChoice("ga", {"nope": 1}),), env=PluginChoice("simple")), "has no parameter 'nope'"),
+        (Experiment(designers=(PluginChoice("ga", {"budget": 1}),), env=PluginChoice("simple")), "set by the harness"),
+    ],
+)
+def test_bad_configuration_creates_no_run_directory(tmp_path, exp, fragment):
+    with pytest.raises(ConfigError) as info:
+        compare(exp, tmp_path / "run")
+    assert fragment in str(info.value)
+    assert not (tmp_path / "run").exists()
+
+
+def test_existing_directory_is_not_overwritten(tmp_path):
+    exp = Experiment(designers=(PluginChoice("random"),), env=PluginChoice("simple"), budget=25)
+    compare(exp, tmp_path / "run")
+    with pytest.raises(ConfigError, match="already exists"):
+        compare(exp, tmp_path / "run")

@@ -1,0 +1,354 @@
+"""Scale and reliability: executors agree, faults stay isolated, killed runs resume, the cache.
+
+The environments that fail on purpose come from a real plugin package
+(``tests/fixtures/faulty_plugin``), installed once into a temporary directory, so that worker
+processes, Ray workers and ``gdabench`` subprocesses import it as they would a user's plugin.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import math
+import multiprocessing
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from gdabench import Experiment, PluginChoice, compare
+from gdabench.body import Body
+from gdabench.cache import EvaluationCache
+from gdabench.errors import ConfigError
+from gdabench.evaluation import OK, EvalOutcome, EvalTask
+from gdabench.executors import make_executor
+from gdabench.plugins import Registry
+from gdabench.results import RunDirectory
+from gdabench.specs import Factory
+
+FIXTURE = Path(__file__).parent / "fixtures" / "faulty_plugin"
+#: columns that legitimately differ between two runs of the same command
+TIMING = ["run_id", "eval_seconds", "design_seconds", "elapsed_seconds", "timestamp"]
+
+
+@pytest.fixture(scope="module")
+def faulty_site(tmp_path_factory) -> Path:
+    src = tmp_path_factory.mktemp("src") / "faulty_plugin"
+    shutil.copytree(FIXTURE, src)
+    site = tmp_path_factory.mktemp("site")
+    cmd = [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation", "--target", str(site), str(src)]
+    subprocess.run(cmd, check=True, capture_output=True)
+    return site
+
+
+@pytest.fixture
+def reg(faulty_site, monkeypatch) -> Registry:
+    """A registry with the built-ins and the faulty plugin, importable by worker processes too."""
+    monkeypatch.syspath_prepend(str(faulty_site))
+    return Registry(entry_points=False, extra_plugins={"faulty": importlib.import_module("gdabench_faulty.plugin")})
+
+
+@pytest.fixture(scope="module")
+def ray_cluster(faulty_site):
+    """One local Ray instance for this module; the ray executor joins it instead of starting its own."""
+    ray = pytest.importorskip("ray", reason="ray is not installed (pip install -e '.[ray]')")
+    path = os.pathsep.join([str(faulty_site), *filter(None, sys.path)])
+    ray.init(num_cpus=2, include_dashboard=False, logging_level="WARNING", runtime_env={"env_vars": {"PYTHONPATH": path}})
+    yield ray
+    ray.shutdown()
+
+
+def cli(*args: str, site: Path, env: dict | None = None, **kw) -> subprocess.Popen | subprocess.CompletedProcess:
+    environ = dict(os.environ, COLUMNS="200", PYTHONPATH=os.pathsep.join(filter(None, [str(site), os.environ.get("PYTHONPATH")])), **(env or {}))
+    command = [sys.executable, "-m", "gdabench", *args]
+    if kw.pop("background", False):
+        return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environ)
+    return subprocess.run(command, capture_output=True, text=True, env=environ, timeout=300)
+
+
+def table(run_dir: Path, drop=()) -> pd.DataFrame:
+    frame = RunDirectory.open(run_dir).load_evaluations()
+    return frame.drop(columns=[*TIMING, *drop]).sort_values(["seed", "designer", "generation", "index"]).reset_index(drop=True)
+
+
+def voxel_sum(text: str) -> float:
+    return float(Body.from_text(text).voxels.sum())
+
+
+# -- executors agree --------------------------------------------------------------------------
+def test_same_bodies_and_rewards_with_every_executor(tmp_path, ray_cluster):
+    exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), env=PluginChoice("simple"), budget=75, seeds=(0, 1))
+    serial = compare(exp, tmp_path / "serial")
+    assert serial.meta["execution"]["executor"] == "serial"
+    reference = table(tmp_path / "serial")
+    for name, options in {"process": dict(workers=2), "ray": dict(executor="ray", workers=2)}.items():
+        run = compare(exp, tmp_path / name, **options)
+        assert run.meta["execution"] == {"executor": name, "workers": 2, "timeout": None, "ray_address": None, "cache": None}
+        pd.testing.assert_frame_equal(table(tmp_path / name), reference, obj=name)
+
+
+# -- fault isolation ----------------------------------------------------------------------------
+FAULTS = {"raise_on": 1, "nan_on": 2, "inf_on": 3, "hang_on": 4, "exit_on": 5, "kill_on": 6}
+EXPECTED = {
+    "raise_on": ("error", "RuntimeError: simulator exploded on "),
+    "nan_on": ("error", "environment returned a non-finite reward (nan)"),
+    "inf_on": ("error", "environment returned a non-finite reward (-inf)"),
+    "hang_on": ("timeout", "evaluation did not finish within the 2 s timeout"),
+    "exit_on": ("error", "worker process died"),
+    "kill_on": ("error", "worker process died"),
+}
+
+
+@pytest.fixture
+def faulty_experiment(tmp_path, reg):
+    """A GA run on `faulty` whose first generation holds one body for each kind of fault."""
+    plain = Experiment(designers=(PluginChoice("ga"),), env=PluginChoice("faulty"), population=10, budget=30)
+    first = compare(plain, tmp_path / "plain", reg=reg).load_evaluations().query("generation == 0")["body"].tolist()
+    params = {fault: [first[i]] for fault, i in FAULTS.items()} | {"record_pid": True}
+    return Experiment(designers=(PluginChoice("ga"),), env=PluginChoice("faulty", params), population=10, budget=30), first
+
+
+def check_faults(frame: pd.DataFrame, first: list[str]) -> None:
+    assert len(frame) == 30 and frame["n_evals"].tolist() == list(range(1, 31))  # failures use budget, nothing else does
+    g0 = frame[frame["generation"] == 0].set_index("index")
+    assert g0["body"].tolist() == first
+    for fault, index in FAULTS.items():
+        status, message = EXPECTED[fault]
+        assert g0.loc[index, "status"] == status, fault
+        assert g0.loc[index, "message"].startswith(message), (fault, g0.loc[index, "message"])
+        assert math.isnan(g0.loc[index, "reward"])
+    ok = frame[frame["status"] == "ok"]
+    assert len(ok) == 30 - len(FAULTS)  # only the faulty bodies failed, in their generation and after it
+    assert (ok["reward"] == ok["body"].map(voxel_sum)).all()
+
+
+def test_faults_are_recorded_and_the_run_goes_on(tmp_path, reg, faulty_experiment):
+    exp, first = faulty_experiment
+    run = compare(exp, tmp_path / "process", reg=reg, workers=2, timeout=2)
+    assert run.meta["status"] == "complete"
+    frame = run.load_evaluations()
+    check_faults(frame, first)
+    assert frame[frame["generation"] == 0]["pid"].nunique() >= 2  # bodies of one generation ran in parallel
+    # serial with a timeout: one worker process, replaced after each hang or death
+    serial = compare(exp, tmp_path / "serial", reg=reg, timeout=2)
+    assert serial.meta["execution"]["executor"] == "serial" and serial.meta["status"] == "complete"
+    assert os.getpid() not in set(serial.load_evaluations()["pid"].dropna())
+    # the same table: no outcome depends on which other evaluations failed, or where
+    pd.testing.assert_frame_equal(table(tmp_path / "serial", drop=["pid"]), table(tmp_path / "process", drop=["pid"]))
+
+
+def test_faults_on_ray(tmp_path, reg, faulty_experiment, ray_cluster):
+    exp, first = faulty_experiment
+    run = compare(exp, tmp_path / "run", reg=reg, executor="ray", workers=2, timeout=2)
+    assert run.meta["status"] == "complete" and run.meta["execution"]["timeout"] == 2
+    check_faults(run.load_evaluations(), first)
+
+
+def test_serial_without_timeout_evaluates_in_the_driver(tmp_path, reg):
+    exp = Experiment(designers=(PluginChoice("random"),), env=PluginChoice("faulty", {"record_pid": True}), population=5, budget=5)
+    frame = compare(exp, tmp_path / "run", reg=reg).load_evaluations()
+    assert set(frame["pid"]) == {os.getpid()}
+
+
+def test_dead_worker_is_replaced_and_others_keep_their_results(reg):
+    """Two workers, six bodies, one kills its worker: only that body is an error, in any batch."""
+    texts = ["33/00", "44/00", "34/00", "43/00", "30/30", "40/40"]
+    env = Factory.of("gdabench_faulty.envs:Faulty", {"shape": (2, 2), "exit_on": ["34/00"], "record_pid": True})
+    tasks = [EvalTask(Body.from_text(t), 0, env) for t in texts]
+    with make_executor("process", 2, warm=[env]) as executor:
+        outcomes = executor.map(tasks)
+        workers = [slot.worker.process for slot in executor._pool.slots]
+        assert len(workers) == 2 and all(w.is_alive() for w in workers)  # the dead one was replaced
+        again = executor.map(tasks[:2])
+    assert [o.status for o in outcomes] == ["ok", "ok", "error", "ok", "ok", "ok"]
+    assert outcomes[2].message == "worker process died (exit code 3)"
+    assert [o.reward for i, o in enumerate(outcomes) if i != 2] == [6.0, 8.0, 7.0, 6.0, 8.0]
+    assert [o.reward for o in again] == [6.0, 8.0]
+
+
+# -- designer failure, kill and resume ----------------------------------------------------------
+def test_designer_failure_is_one_line_and_resumable(tmp_path, faulty_site):
+    flag = tmp_path / "fail-now"
+    flag.touch()
+    args = ["compare", "-d", f"fragile[fail_at=2,flag={flag}]", "--env", "faulty", "--budget", "100", "-q", "--no-report"]
+    failed = cli(*args, "--out", str(tmp_path / "run"), site=faulty_site)
+    assert failed.returncode == 1
+    lines = [line for line in failed.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and "raised in ask(): RuntimeError: designer model diverged" in lines[0], failed.stderr
+    assert f"gdabench compare --resume {tmp_path / 'run'}" in lines[0]
+    run = RunDirectory.open(tmp_path / "run")
+    assert run.meta["status"] == "failed" and sorted(run.load_evaluations()["generation"].unique()) == [0, 1]
+    flag.unlink()
+    resumed = cli("compare", "--resume", str(tmp_path / "run"), "-q", "--no-report", site=faulty_site)
+    assert resumed.returncode == 0, resumed.stderr
+    reference = cli(*args, "--out", str(tmp_path / "ref"), site=faulty_site)
+    assert reference.returncode == 0, reference.stderr
+    pd.testing.assert_frame_equal(table(tmp_path / "run"), table(tmp_path / "ref"))
+
+
+def _children(pid: int) -> set[int]:
+    found = set()
+    for task in Path(f"/proc/{pid}/task").glob("*/children"):
+        found |= {int(p) for p in task.read_text().split()}
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="needs Linux /proc to find the worker processes")
+def test_sigkilled_run_resumes_to_the_uninterrupted_table(tmp_path, faulty_site):
+    """A real `gdabench compare` with two workers is SIGKILLed halfway, then resumed serially."""
+    out = tmp_path / "killed"
+    args = ["compare", "-d", "ga,random", "--env", "faulty", "--budget", "100", "--seeds", "0,1", "-q", "--no-report"]
+    proc = cli(*args, "--workers", "2", "--out", str(out), site=faulty_site, env={"GDABENCH_FAULTY_DELAY": "0.05"}, background=True)
+    deadline, workers = time.monotonic() + 120, set()
+    try:
+        # halfway: the first (designer, seed) run is merged and the second has two generations on disk
+        while not ((out / "evaluations.parquet").exists() and len(list((out / "pending").glob("*/gen-*.parquet"))) >= 2):
+            assert proc.poll() is None, f"run ended before it could be killed: {proc.communicate()}"
+            assert time.monotonic() < deadline, "run made no progress"
+            workers |= _children(proc.pid)
+            time.sleep(0.02)
+        workers |= _children(proc.pid)
+        proc.send_signal(signal.SIGKILL)
+    finally:
+        proc.wait()
+    assert proc.returncode == -signal.SIGKILL
+    assert len(workers) >= 2
+    for _ in range(100):  # orphaned workers notice and exit
+        if not any(_alive(p) for p in workers):
+            break
+        time.sleep(0.1)
+    assert not any(_alive(p) for p in workers), "worker processes outlived the killed run"
+    assert RunDirectory.open(out).meta["status"] == "running"  # as the kill left it
+
+    resumed = cli("compare", "--resume", str(out), "-q", "--no-report", site=faulty_site)
+    assert resumed.returncode == 0, resumed.stderr
+    reference = cli(*args, "--out", str(tmp_path / "reference"), site=faulty_site)
+    assert reference.returncode == 0, reference.stderr
+    got, want = table(out), table(tmp_path / "reference")
+    assert len(got) == 400 and not got.duplicated(["designer", "seed", "generation", "index"]).any()
+    pd.testing.assert_frame_equal(got, want)
+    meta = RunDirectory.open(out).meta
+    assert meta["status"] == "complete" and meta["execution"]["executor"] == "process" and meta["resumed"][-1]["executor"] == "serial"
+    assert not (out / "pending").exists() and not (out / "checkpoints").exists()
+
+
+# -- evaluation cache ---------------------------------------------------------------------------
+def test_cache_hits_across_runs_and_counts_them_as_evaluations(tmp_path, reg):
+    cache = tmp_path / "cache"
+    exp = Experiment(designers=(PluginChoice("ga"),), env=PluginChoice("faulty"), budget=60, seeds=(0,))
+    first = compare(exp, tmp_path / "first", reg=reg, cache=cache)
+    assert first.meta["execution"]["cache"] == str(cache)
+    a = first.load_evaluations()
+    assert not a["cached"].any()
+    ok = a[a["status"] == "ok"]
+    assert len(list(cache.rglob("*.json"))) == ok["body_hash"].nunique() == 60
+    second = compare(exp, tmp_path / "second", reg=reg, cache=cache, workers=2).load_evaluations()
+    assert second["cached"].tolist() == (second["status"] == "ok").tolist()
+    assert second.loc[second["cached"], "eval_seconds"].eq(0).all()
+    pd.testing.assert_frame_equal(table(tmp_path / "second", drop=["cached"]), table(tmp_path / "first", drop=["cached"]))
+    # another seed gives other evaluation seeds: nothing to reuse, even for bodies seen before
+    other = compare(Experiment(exp.designers, exp.env, budget=60, seeds=(1,)), tmp_path / "other", reg=reg, cache=cache).load_evaluations()
+    assert not other["cached"].any() and len(list(cache.rglob("*.json"))) == 120
+
+
+def test_cache_skips_failures_and_nondeterministic_environments(tmp_path, reg, faulty_site):
+    body = Body.from_text("33/44")
+    cache = EvaluationCache(tmp_path / "cache", {"env": "x"})
+    task = EvalTask(body, 5, Factory.of("gdabench.envs.simple:SumOfVoxels", {"shape": (2, 2)}))
+    assert cache.get(task) is None
+    assert not cache.put(task, EvalOutcome(math.nan, "error", "boom"))
+    assert not cache.put(task, EvalOutcome(1.0, OK, info={"model": object()}))  # would not come back the same
+    assert cache.get(task) is None
+    assert cache.put(task, EvalOutcome(14.0, OK, info={"steps": 3}))
+    assert cache.get(task) == EvalOutcome(14.0, OK, "", 0.0, {"steps": 3}, cached=True)
+    assert cache.get(EvalTask(body, 6, task.env)) is None  # another evaluation seed
+    assert EvaluationCache(tmp_path / "cache", {"env": "y"}).get(task) is None  # another configuration
+    (tmp_path / "file").touch()
+    with pytest.raises(ConfigError, match="cannot use .*file as the evaluation cache"):
+        EvaluationCache(tmp_path / "file", {})
+    exp = Experiment(designers=(PluginChoice("random"),), env=PluginChoice("noisy"), budget=25)
+    result = cli("compare", "-d", "random", "--env", "noisy", "--budget", "25", "-q", "--no-report", "--cache", str(tmp_path / "c2"), "--out", str(tmp_path / "run"), site=faulty_site)
+    assert result.returncode == 0, result.stderr
+    assert "not deterministic; the evaluation cache was not used" in result.stderr
+    assert not (tmp_path / "c2").exists() and not compare(exp, tmp_path / "api", reg=reg, cache=tmp_path / "c2").load_evaluations()["cached"].any()
+
+
+def _hammer(root: str, worker: int) -> list[float]:
+    cache = EvaluationCache(root, {"env": "shared"})
+    env = Factory.of("gdabench.envs.simple:SumOfVoxels", {"shape": (2, 2)})
+    seen = []
+    for i in range(60):
+        task = EvalTask(Body.from_text("33/44"), (i + worker) % 20, env)
+        cache.put(task, EvalOutcome(float(task.seed), OK))
+        hit = cache.get(task)
+        seen.append(hit.reward if hit else math.nan)
+    return seen
+
+
+def test_cache_is_safe_with_concurrent_writers(tmp_path):
+    with multiprocessing.get_context("spawn").Pool(4) as pool:
+        results = pool.starmap(_hammer, [(str(tmp_path), w) for w in range(4)])
+    for worker, seen in enumerate(results):
+        assert seen == [float((i + worker) % 20) for i in range(60)]
+    assert len(list(tmp_path.rglob("*.json"))) == 20 and not list(tmp_path.rglob("*.tmp"))
+
+
+# -- options ------------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    "options, fragment",
+    [
+        (["--executor", "threads"], "unknown executor 'threads'; known executors: serial, process, ray"),
+        (["--timeout", "0"], "timeout must be a positive number of seconds"),
+        (["--ray-address", "auto"], "--ray-address needs --executor ray"),
+        (["--executor", "serial", "--workers", "2"], "serial executor runs one evaluation at a time"),
+        (["--workers", "0"], "workers must be at least 1"),
+    ],
+)
+def test_bad_execution_options_are_one_line(tmp_path, options, fragment):
+    from typer.testing import CliRunner
+
+    from gdabench.cli import app
+
+    result = CliRunner().invoke(app, ["compare", "-d", "random", "--budget", "25", "--out", str(tmp_path / "run"), *options], env={"COLUMNS": "200"})
+    assert result.exit_code == 2
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and fragment in lines[0], result.stderr
+    assert not (tmp_path / "run").exists()
+
+
+def test_ray_executor_without_ray_says_how_to_install(monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)  # as if ray were not installed
+    with pytest.raises(ConfigError, match=r"needs Ray: pip install 'gdabench\[ray\]'"):
+        make_executor("ray", 2)
+
+
+def test_resume_keeps_the_timeout_and_records_each_execution(tmp_path, reg):
+    exp = Experiment(designers=(PluginChoice("random"),), env=PluginChoice("faulty"), population=5, budget=20)
+
+    class Stop(Exception):
+        pass
+
+    def stop(report):
+        if report.generation == 1:
+            raise Stop
+
+    with pytest.raises(Stop):
+        compare(exp, tmp_path / "run", reg=reg, timeout=30, on_generation=stop)
+    run = compare(None, tmp_path / "run", resume=True, reg=reg, workers=2)
+    meta = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert meta["execution"]["timeout"] == 30 and meta["execution"]["executor"] == "serial"
+    assert meta["resumed"][-1]["timeout"] == 30 and meta["resumed"][-1]["executor"] == "process"
+    assert run.meta["status"] == "complete" and len(run.load_evaluations()) == 20
