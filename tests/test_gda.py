@@ -329,8 +329,9 @@ def test_variants_and_options_run():
     for designer in (gda(schedule="cosine"), gda(sampler="ddim", sample_steps=10), gda(sample_batch=7), gda(temperature=0.5)):
         history = run(designer, 2)
         assert all(len(gen) == 10 and all(b.is_valid for b in gen) for gen in history)
-    fast = make_designer("gda-fast", seed=0, shape=(5, 5), population=10, budget=1000, steps=50, epochs=2)
-    assert isinstance(fast, GenerationalDiffusion)
+    fast = make_designer("gda-fast", seed=0, shape=(5, 5), population=10, budget=1000)
+    assert isinstance(fast, GenerationalDiffusion) and fast.pool == 500 and fast.sampler == "ddim"
+    fast = make_designer("gda-fast", seed=0, shape=(5, 5), population=10, budget=1000, steps=50, pool=40)
     assert len(run(fast, 2)[-1]) == 10
 
 

@@ -31,7 +31,8 @@ def gdabench_designers() -> list[DesignerSpec]:
         ),
         DesignerSpec(
             name="gda-fast",
-            factory="gdabench.designers.gda:FastGenerationalDiffusion",
-            description="GDA with the best measured improvements (see README): faster and reaches the optimum sooner",
+            factory="gdabench.designers.gda:GenerationalDiffusion",
+            description="GDA with the best measured improvements (see README): a reward model picks from a pool of DDIM samples",
+            defaults={"epochs": 10, "sampler": "ddim", "sample_steps": 50, "pool": 500},
         ),
     ]

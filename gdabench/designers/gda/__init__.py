@@ -5,6 +5,6 @@
 and threads; ``designer`` the ask/tell loop that ties them together.
 """
 
-from .designer import FastGenerationalDiffusion, GenerationalDiffusion
+from .designer import GenerationalDiffusion
 
-__all__ = ["FastGenerationalDiffusion", "GenerationalDiffusion"]
+__all__ = ["GenerationalDiffusion"]

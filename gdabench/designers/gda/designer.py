@@ -313,15 +313,6 @@ class GenerationalDiffusion(Designer):
         return state
 
 
-class FastGenerationalDiffusion(GenerationalDiffusion):
-    """``gda-fast``: the best improved setting measured on ``simple`` (see the README)."""
-
-    PRESET: Mapping[str, Any] = {}
-
-    def __init__(self, **kwargs: Any):
-        super().__init__(**{**self.PRESET, **kwargs})
-
-
 def load_prior(source: str, top: int, shape: tuple[int, int]) -> list[Body]:
     """The ``top`` best distinct bodies of another run (run directory or evaluations.parquet),
     or the bodies listed one per line in a text file."""
