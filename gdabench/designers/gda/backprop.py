@@ -307,8 +307,11 @@ class FastUNet:
         self.upsample = F.interpolate(basis, size=size, mode="bilinear", align_corners=True).view(low[0] * low[1], -1).t().contiguous()
         self.cells, self.low_cells = size[0] * size[1], low[0] * low[1]
 
-    def step(self, x: torch.Tensor, t_feat: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
-        """MSE between ``noise`` and the prediction for noisy bodies ``x`` (b, 1, H, W); fills the gradient."""
+    def forward(self, x: torch.Tensor, t_feat: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Predicted noise (b, 1, H, W) for noisy bodies ``x`` and the skip activations.
+
+        ``t_feat`` holds one row of time features per body, or one row for all of them.
+        """
         b = x.shape[0]
         skip = self.inc.forward(x.reshape(b, self.cells, 1))
         h = self.down_conv.forward(self.down_res.forward(self.down.forward(skip)))
@@ -318,7 +321,13 @@ class FastUNet:
         h = torch.cat([skip, torch.matmul(self.upsample, h)], 2)
         h = self.up_time.forward(self.up_conv.forward(self.up_res.forward(h)), t_feat)
         h = self.att_high.forward(h)
-        diff = self.out.forward(h.reshape(b * self.cells, -1)).view_as(noise) - noise
+        return self.out.forward(h.reshape(b * self.cells, -1)).view_as(x), skip
+
+    def step(self, x: torch.Tensor, t_feat: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
+        """MSE between ``noise`` and the prediction for noisy bodies ``x`` (b, 1, H, W); fills the gradient."""
+        b = x.shape[0]
+        prediction, skip = self.forward(x, t_feat)
+        diff = prediction - noise
         loss = diff.pow(2).mean()
 
         g = self.att_high.backward(self.out.backward(diff.reshape(-1, 1) * (2.0 / diff.numel())).view(b, self.cells, -1))
