@@ -123,6 +123,9 @@ Resume = Annotated[
 ]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
 NoReport = Annotated[bool, typer.Option("--no-report", help="Only print the summary table; do not write the report (plots, HTML).")]
+StopAtOptimum = Annotated[
+    bool, typer.Option("--stop-at-optimum", help="End each run once it reaches the environment's optimum (saves the rest of its budget).")
+]
 
 
 def _designer_choices(designers: str, designer_params: list[str] | None) -> list[PluginChoice]:
@@ -165,6 +168,7 @@ def _execute(
     resume: Path | None,
     quiet: bool,
     no_report: bool = False,
+    stop_at_optimum: bool = False,
 ) -> None:
     guard = _Guard(resume or out)
     with guard:
@@ -186,6 +190,7 @@ def _execute(
                 population=population,
                 budget=budget,
                 seeds=tuple(parse_seeds(seeds, repetitions)),
+                stop_at_optimum=stop_at_optimum,
             )
             experiment.validate()
         runs = len(experiment.designers) * len(experiment.seeds)
@@ -295,6 +300,7 @@ def compare(
     resume: Resume = None,
     quiet: Quiet = False,
     no_report: NoReport = False,
+    stop_at_optimum: StopAtOptimum = False,
 ) -> None:
     """Run several designers side by side under the same budget and seeds."""
     if not designers and resume is None:
@@ -324,6 +330,7 @@ def run(
     resume: Resume = None,
     quiet: Quiet = False,
     no_report: NoReport = False,
+    stop_at_optimum: StopAtOptimum = False,
 ) -> None:
     """Run one designer."""
     _execute(designers=designer, **{k: v for k, v in locals().items() if k != "designer"})

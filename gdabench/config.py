@@ -177,6 +177,8 @@ class Experiment:
     population: int = 25
     budget: int = 1000
     seeds: tuple[int, ...] = (0,)
+    #: end a run once it reaches the environment's optimum (the rest of its budget is not spent)
+    stop_at_optimum: bool = False
 
     def validate(self, reg: Registry | None = None) -> None:
         """Check names, numbers and parameters; raises :class:`ConfigError` with one line."""
@@ -228,4 +230,5 @@ class Experiment:
             population=int(data["population"]),
             budget=int(data["budget"]),
             seeds=tuple(int(s) for s in data["seeds"]),
+            stop_at_optimum=bool(data.get("stop_at_optimum", False)),
         )

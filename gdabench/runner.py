@@ -224,6 +224,8 @@ class Runner:
 
             if n_evals >= exp.budget or truncated:
                 break
+            if exp.stop_at_optimum and self.env.optimum is not None and best >= self.env.optimum:
+                break
             stale = 0 if tasks else stale + 1
             if stale >= MAX_STALE_GENERATIONS:
                 raise DesignerError(f"designer {label!r} (seed {seed}) proposed no new valid body in {stale} generations in a row")

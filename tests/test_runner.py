@@ -245,3 +245,15 @@ def test_existing_directory_is_not_overwritten(tmp_path):
     compare(exp, tmp_path / "run")
     with pytest.raises(ConfigError, match="already exists"):
         compare(exp, tmp_path / "run")
+
+
+def test_stop_at_optimum_ends_a_run_after_the_generation_that_reaches_it(tmp_path, reg):
+    script = [[A], ["44/44", C], [D], [B]]  # simple on 2x2: the optimum is 16 ("44/44")
+    full = compare(scripted(script, env="simple", budget=5, population=2), tmp_path / "full", reg=reg).load_evaluations()
+    exp = Experiment(**{**scripted(script, env="simple", budget=5, population=2).__dict__, "stop_at_optimum": True})
+    run = compare(exp, tmp_path / "stopped", reg=reg)
+    stopped = run.load_evaluations()
+    assert list(full["body"]) == [A, "44/44", C, D, B]
+    assert list(stopped["body"]) == [A, "44/44", C]  # the rest of the budget is not spent
+    assert stopped["best_so_far"].iloc[-1] == 16.0 and run.meta["status"] == "complete"
+    assert Experiment.from_json(run.meta["config"]).stop_at_optimum is True

@@ -24,4 +24,15 @@ def gdabench_designers() -> list[DesignerSpec]:
             factory="gdabench.designers.random_search:RandomSearch",
             description="Fresh random valid bodies every generation: the floor any designer must beat",
         ),
+        DesignerSpec(
+            name="gda",
+            factory="gdabench.designers.gda:GenerationalDiffusion",
+            description="Generational diffusion algorithm of the thesis: a fresh DDPM trained on the survivors each generation",
+        ),
+        DesignerSpec(
+            name="gda-fast",
+            factory="gdabench.designers.gda:GenerationalDiffusion",
+            description="GDA with the best measured improvements (see README): a reward model picks from a pool of DDIM samples",
+            defaults={"epochs": 10, "sampler": "ddim", "sample_steps": 50, "pool": 500},
+        ),
     ]

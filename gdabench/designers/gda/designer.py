@@ -1,0 +1,341 @@
+"""The generational diffusion algorithm (GDA, thesis chapter 4) as an ask/tell designer.
+
+Each generation: the survivors are the best ``survivors`` bodies among the previous survivors
+and the generation just evaluated (they keep their reward); a *fresh* diffusion model is
+trained on them; new bodies are drawn from it until the next generation holds ``population``
+valid, unique, never-proposed bodies.  Generation 0 comes from Evolution Gym's random sampler
+(the same bodies as ``ga`` and ``random`` under the same seed).
+
+Departures from the author's code, all deliberate:
+
+* bodies are never changed in place.  The author's code re-encodes every survivor's array in
+  place before training, so a body that survives k generations is trained on as a permuted
+  body while keeping its first score (an accidental mutation operator).  That behaviour is
+  available, explicitly, as ``published_reencoding=True`` so the thesis's numbers can be
+  reproduced; the default trains on the survivors as they are;
+* a sampling shortfall never crashes (the author's code fails after 1,000 samples).  After
+  ``max_samples`` draws the generation is completed with fresh bodies from Evolution Gym's
+  random sampler; every row says how its body was made in the ``source`` column
+  (``initial``, ``sampled`` or ``random``);
+* how many samples are drawn per denoising pass adapts to the acceptance rate seen so far.
+  Samples are independent and taken in order, so the accepted bodies have exactly the
+  distribution of the author's fixed passes of 50; only the work changes.
+
+Options beyond the thesis (each measured against the faithful setting in the README):
+``target_mse`` (train until the epoch's mean loss reaches it), ``schedule='cosine'``,
+``sampler='ddim'`` with ``sample_steps``, ``temperature`` (noise scale while sampling),
+``warm_start`` (continue from the previous generation's weights), ``pool`` (draw more new
+bodies than needed and propose those a reward regression rates best), ``prior`` (train
+generation 0's model on the best bodies of another run instead of sampling at random).
+Speed options that keep the results' distribution: ``compile`` (``torch.compile`` the
+training step), ``threads``, ``device``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+import torch
+
+from ...body import Body, as_body, invalid_reason, random_body
+from ...designer import Designer, top_k
+from ...errors import ConfigError, GdabenchError
+from .encoding import decode, encode, published_reencoding
+from .runtime import check_threads, resolve_device, torch_threads
+from .sampling import SAMPLERS, ancestral_sample, ddim_sample
+from .schedule import make_schedule
+from .surrogate import ridge_predictor
+from .training import Trainer, TrainResult
+
+TORCH_STREAM = 1  # spawn-key branch of the designer's seed used for torch (weights, noise)
+MAX_PASS = 256  # most samples denoised in one pass when the pass size adapts
+#: compile='auto' compiles the training step when a run trains at least this many steps: about
+#: where the ~1.1 ms saved per step repays a first-time compilation (1-2 minutes) on a 2-core CPU
+AUTO_COMPILE_STEPS = 50_000
+#: trainers shared by the designers of one process (they run one after another): every
+#: generation starts from fresh weights anyway, and sharing compiles the step only once
+_TRAINERS: dict[tuple[Any, ...], Trainer] = {}
+
+
+@dataclass(frozen=True)
+class Survivor:
+    """A surviving body, its reward, and how often the published code would have re-encoded it."""
+
+    body: Body
+    reward: float
+    reencoded: int = 0
+
+
+class GenerationalDiffusion(Designer):
+    """GDA with the thesis's defaults; see the module docstring for every option."""
+
+    def __init__(
+        self,
+        *,
+        survivors: int = 5,
+        epochs: int = 250,
+        dataset_size: int = 64,
+        batch_size: int | None = None,
+        lr: float = 1e-3,
+        steps: int = 500,
+        beta_start: float = 1e-4,
+        beta_end: float = 0.02,
+        schedule: str = "linear",
+        sampler: str = "ddpm",
+        sample_steps: int = 50,
+        sample_batch: int | None = None,
+        temperature: float = 1.0,
+        pool: int | None = None,
+        max_samples: int = 1000,
+        target_mse: float | None = None,
+        warm_start: bool = False,
+        published_reencoding: bool = False,
+        prior: str | None = None,
+        prior_top: int = 5,
+        device: str = "cpu",
+        threads: int | None = 1,
+        compile: bool | str = "auto",
+        **kwargs: Any,
+    ):
+        super().__init__(**kwargs)
+        positive = {"survivors": survivors, "epochs": epochs, "dataset_size": dataset_size, "max_samples": max_samples,
+                    "sample_steps": sample_steps, "prior_top": prior_top}
+        for name, value in positive.items():
+            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+                raise ConfigError(f"gda: {name} must be a positive integer, got {value!r}")
+        for name, value in (("batch_size", batch_size), ("sample_batch", sample_batch), ("pool", pool)):
+            if value is not None and (not isinstance(value, int) or value < 1):
+                raise ConfigError(f"gda: {name} must be a positive integer, got {value!r}")
+        if not lr > 0:
+            raise ConfigError(f"gda: lr must be positive, got {lr!r}")
+        if target_mse is not None and not target_mse > 0:
+            raise ConfigError(f"gda: target_mse must be positive, got {target_mse!r}")
+        if sampler not in SAMPLERS:
+            raise ConfigError(f"gda: unknown sampler {sampler!r}; choose one of {', '.join(SAMPLERS)}")
+        self.n_survivors = survivors
+        self.epochs = epochs
+        self.dataset_size = dataset_size
+        self.batch_size = batch_size or survivors
+        self.lr = float(lr)
+        self.schedule_args = (schedule, int(steps), float(beta_start), float(beta_end))
+        make_schedule(*self.schedule_args)  # validate now: errors belong to the command line
+        self.sampler = sampler
+        self.sample_steps = sample_steps
+        self.sample_batch = sample_batch
+        if not temperature >= 0:
+            raise ConfigError(f"gda: temperature must be at least 0, got {temperature!r}")
+        self.temperature = float(temperature)
+        if pool is not None and pool < self.population:
+            raise ConfigError(f"gda: pool must be at least the population ({self.population}), got {pool}")
+        self.pool = pool
+        self.max_samples = max_samples
+        self.target_mse = None if target_mse is None else float(target_mse)
+        self.warm_start = bool(warm_start)
+        self.published_reencoding = bool(published_reencoding)
+        self.device_name = device
+        resolve_device(device)
+        check_threads(threads)
+        self.threads = threads
+        if compile not in (True, False, "auto"):
+            raise ConfigError(f"gda: compile must be true, false or auto, got {compile!r}")
+        self.compile = compile
+        self.prior_bodies = load_prior(prior, prior_top, self.shape) if prior else []
+
+        self.survivors: list[Survivor] = []
+        self.evaluated: list[tuple[np.ndarray, float]] = []  # every told body, for the pool's reward model
+        self.evaluations = 0
+        self.generation = 0
+        self._seen: set[str] = set()
+        self._info: list[dict[str, Any]] = []
+        self._acceptance = 0.5  # running estimate of the share of samples that are new and valid
+        self._weights: torch.Tensor | None = None  # previous model's weights, kept only to warm-start
+        self._trainer: Trainer | None = None
+
+    # -- ask/tell ------------------------------------------------------------------------------
+    def ask(self) -> list[Body]:
+        with torch_threads(self.threads):
+            return self._ask()
+
+    def _ask(self) -> list[Body]:
+        wanted = min(self.population, self.budget - self.evaluations)
+        if wanted < 1:
+            raise GdabenchError("gda: the evaluation budget is used up; nothing left to ask for")
+        training_set = self._training_set()
+        if training_set is None:
+            bodies = [self._remember(random_body(self.rng, self.shape, exclude=self._seen)) for _ in range(wanted)]
+            self._info = [{"source": "initial"} for _ in bodies]
+        else:
+            generator = self._torch_generator()
+            trained = self._train(training_set, generator)
+            start = time.perf_counter()
+            if self.pool is None:
+                sampled, drawn = self._sample_new(wanted, generator)
+            else:
+                candidates, drawn = self._sample_new(self.pool, generator, remember=False)
+                sampled = [self._remember(b) for b in self._most_promising(candidates, wanted)]
+            sample_seconds = time.perf_counter() - start
+            fallback = [self._remember(random_body(self.rng, self.shape, exclude=self._seen)) for _ in range(wanted - len(sampled))]
+            bodies = sampled + fallback
+            common = {
+                "train_epochs": trained.epochs,
+                "train_loss": trained.loss,
+                "train_seconds": trained.seconds,
+                "samples_drawn": drawn,
+                "sample_seconds": sample_seconds,
+            }
+            self._info = [{"source": "sampled", **common} for _ in sampled] + [{"source": "random", **common} for _ in fallback]
+        self.generation += 1
+        return bodies
+
+    def tell(self, bodies: Sequence[Body], rewards: Sequence[float]) -> None:
+        self.evaluations += len(bodies)
+        if self.pool is not None:
+            self.evaluated += [(np.array(as_body(b).voxels), float(r)) for b, r in zip(bodies, rewards)]
+        pool = self.survivors + [Survivor(as_body(b), float(r)) for b, r in zip(bodies, rewards)]
+        scores = [s.reward for s in pool]
+        self.survivors = top_k(pool, scores, self.n_survivors)[0]
+
+    def proposal_info(self) -> list[Mapping[str, Any]]:
+        return list(self._info)
+
+    # -- training and sampling -----------------------------------------------------------------
+    def _training_set(self) -> list[np.ndarray] | None:
+        """Bodies the next model learns from (None: sample generation 0 at random)."""
+        if self.survivors:
+            if self.published_reencoding:
+                data = [published_reencoding(s.body.voxels, s.reencoded) for s in self.survivors]
+                self.survivors = [replace(s, reencoded=s.reencoded + 1) for s in self.survivors]
+                return data
+            return [np.array(s.body.voxels) for s in self.survivors]
+        if self.prior_bodies:
+            return [np.array(b.voxels) for b in self.prior_bodies]
+        return None
+
+    def _torch_generator(self) -> torch.Generator:
+        """This generation's torch stream, derived from the seed alone (so resume is exact)."""
+        ss = np.random.SeedSequence(self.seed_sequence.entropy, spawn_key=(*self.seed_sequence.spawn_key, TORCH_STREAM, self.generation))
+        return torch.Generator().manual_seed(int(ss.generate_state(1, dtype=np.uint64)[0] >> np.uint64(1)))
+
+    @property
+    def trainer(self) -> Trainer:
+        if self._trainer is None:
+            device = resolve_device(self.device_name)
+            compile = self.compile
+            if compile == "auto":
+                generations = -(-self.budget // self.population)
+                steps = (generations - 1) * self.epochs * -(-self.dataset_size // self.batch_size)
+                compile = device.type == "cpu" and steps >= AUTO_COMPILE_STEPS
+            key = (self.schedule_args, self.shape, self.lr, str(device), bool(compile))
+            if key not in _TRAINERS:
+                _TRAINERS[key] = Trainer(make_schedule(*self.schedule_args), shape=self.shape, lr=self.lr, device=device, compile=bool(compile))
+            self._trainer = _TRAINERS[key]
+        return self._trainer
+
+    def _train(self, bodies: list[np.ndarray], generator: torch.Generator) -> TrainResult:
+        trainer = self.trainer
+        trainer.reset(generator)
+        if self.warm_start and self._weights is not None:
+            with torch.no_grad():
+                trainer.flat.copy_(self._weights.to(trainer.device))
+        data = torch.from_numpy(encode(np.stack(bodies)))[:, None]
+        result = trainer.fit(
+            data,
+            epochs=self.epochs,
+            generator=generator,
+            batch_size=self.batch_size,
+            dataset_size=self.dataset_size,
+            target_loss=self.target_mse,
+        )
+        if self.warm_start:
+            self._weights = trainer.flat.detach().to("cpu", copy=True)
+        return result
+
+    def _draw(self, n: int, generator: torch.Generator) -> np.ndarray:
+        """``n`` decoded samples (n, H, W) from the current model."""
+        trainer = self.trainer
+        if self.sampler == "ddim":
+            x = ddim_sample(trainer.model, trainer.schedule, n, self.shape, generator, trainer.device, self.sample_steps, temperature=self.temperature)
+        else:
+            x = ancestral_sample(trainer.model, trainer.schedule, n, self.shape, generator, trainer.device, self.temperature)
+        return decode(x[:, 0].cpu().numpy())
+
+    def _sample_new(self, wanted: int, generator: torch.Generator, remember: bool = True) -> tuple[list[Body], int]:
+        """Up to ``wanted`` new valid distinct bodies, in sampling order, drawing at most ``max_samples``.
+
+        ``remember=False`` leaves them out of the seen set (a pool to choose from).
+        """
+        accepted: list[Body] = []
+        taken: set[str] = set()
+        drawn = 0
+        while len(accepted) < wanted and drawn < self.max_samples:
+            n = self._pass_size(wanted - len(accepted), self.max_samples - drawn)
+            for voxels in self._draw(n, generator):
+                drawn += 1
+                if invalid_reason(voxels) is None:
+                    body = Body(voxels)
+                    if body.hash not in self._seen and body.hash not in taken:
+                        taken.add(body.hash)
+                        accepted.append(self._remember(body) if remember else body)
+                        if len(accepted) == wanted:
+                            break
+        if drawn:
+            self._acceptance = 0.5 * self._acceptance + 0.5 * max(len(accepted) / drawn, 0.02)
+        return accepted, drawn
+
+    def _most_promising(self, candidates: list[Body], k: int) -> list[Body]:
+        """The ``k`` candidates a ridge regression on all evaluated bodies rates best (ties: sampling order)."""
+        if len(candidates) <= k or not self.evaluated:
+            return candidates[:k]
+        voxels, rewards = zip(*self.evaluated)
+        predict = ridge_predictor(np.stack(voxels), np.array(rewards))
+        scores = predict(np.stack([b.voxels for b in candidates]))
+        return [candidates[i] for i in np.argsort(-scores, kind="stable")[:k]]
+
+    def _pass_size(self, missing: int, allowed: int) -> int:
+        if self.sample_batch is not None:
+            return min(self.sample_batch, allowed)
+        expected = math.ceil(1.25 * missing / self._acceptance) + 2
+        return max(1, min(expected, MAX_PASS, allowed))
+
+    def _remember(self, body: Body) -> Body:
+        self._seen.add(body.hash)
+        return body
+
+    # -- pickling (checkpoints) ----------------------------------------------------------------
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_trainer"] = None  # rebuilt on demand; every generation starts from a fresh (or saved) model
+        return state
+
+
+def load_prior(source: str, top: int, shape: tuple[int, int]) -> list[Body]:
+    """The ``top`` best distinct bodies of another run (run directory or evaluations.parquet),
+    or the bodies listed one per line in a text file."""
+    path = Path(source)
+    if path.is_dir():
+        path = path / "evaluations.parquet"
+    if not path.exists():
+        raise ConfigError(f"gda: prior {source!r} not found (give a run directory, its evaluations.parquet, or a text file of bodies)")
+    try:
+        if path.suffix == ".parquet":
+            import pandas as pd
+
+            rows = pd.read_parquet(path, columns=["body", "reward", "status"])
+            rows = rows[rows["status"] == "ok"].sort_values("reward", ascending=False, kind="stable")
+            texts = list(dict.fromkeys(rows["body"]))
+        else:
+            texts = [line.split()[0] for line in path.read_text().splitlines() if line.strip() and not line.startswith("#")]
+    except GdabenchError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - any unreadable file is one line for the user
+        raise ConfigError(f"gda: cannot read prior {source!r}: {type(exc).__name__}: {exc}") from None
+    bodies = [as_body(t) for t in texts]
+    bodies = [b for b in bodies if b.shape == tuple(shape) and b.is_valid][:top]
+    if not bodies:
+        raise ConfigError(f"gda: prior {source!r} holds no valid {shape[0]}x{shape[1]} body")
+    return bodies

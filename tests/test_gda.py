@@ -1,0 +1,412 @@
+"""The generational diffusion designer: model, encoding, training, sampling, the ask/tell loop.
+
+Loop tests use a short diffusion (steps=50) and a few epochs so that they run in seconds; the
+tests about what training achieves use the thesis's T = 500.
+"""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import pytest
+import torch
+
+from gdabench import Body, ConfigError, make_designer, random_body
+from gdabench.designers.gda import GenerationalDiffusion
+from gdabench.designers.gda import designer as gda_designer
+from gdabench.designers.gda.backprop import FastUNet, module_layout
+from gdabench.designers.gda.encoding import EVOGYM_TO_MODEL, decode, encode, published_reencoding
+from gdabench.designers.gda.model import UNet, parameter_count
+from gdabench.designers.gda.runtime import torch_threads
+from gdabench.designers.gda.sampling import ancestral_sample, ddim_sample
+from gdabench.designers.gda.schedule import make_schedule
+from gdabench.designers.gda.surrogate import ridge_predictor
+from gdabench.designers.gda.training import Trainer, repeat_to
+
+from gda_reference import RefUNet
+
+FAST = {"steps": 50, "epochs": 2}  # a short diffusion for loop tests
+EPOCHS_ONE_BODY = 120
+TARGET = Body.from_text("44444/43034/43034/40004/22222")
+
+
+def reward(body: Body) -> float:
+    return float(np.asarray(body.voxels, dtype=int).sum())
+
+
+def run(designer, generations: int) -> list[list[Body]]:
+    """Drive a designer as the harness does on the ``simple`` environment."""
+    history = []
+    for _ in range(generations):
+        bodies = designer.ask()
+        history.append(bodies)
+        designer.tell(bodies, [reward(b) for b in bodies])
+    return history
+
+
+def gda(seed: int = 0, **params) -> GenerationalDiffusion:
+    return make_designer("gda", seed=seed, shape=(5, 5), population=10, budget=1000, **{**FAST, **params})
+
+
+@pytest.fixture(autouse=True, scope="module")
+def one_thread():
+    """Train and sample on one torch thread, as the designer does (and restore afterwards)."""
+    with torch_threads(1):
+        yield
+
+
+# -- model ---------------------------------------------------------------------------------------
+def test_model_has_the_thesis_parameter_count():
+    assert parameter_count(UNet()) == 90_833
+
+
+@pytest.mark.parametrize("grad", [True, False])
+def test_model_computes_the_thesis_architecture(grad):
+    torch.manual_seed(0)
+    ours = UNet()
+    ref = RefUNet().load_from(ours)
+    assert parameter_count(ref) == 90_833
+    x, t = torch.randn(7, 1, 5, 5), torch.randint(1, 500, (7,))
+    with torch.set_grad_enabled(grad):
+        assert torch.allclose(ours(x, t), ref(x, t), atol=1e-5)
+
+
+@pytest.mark.parametrize("batch", [5, 4])
+def test_hand_derived_training_step_matches_autograd(batch):
+    torch.manual_seed(1)
+    model = UNet()
+    net = FastUNet(model, (5, 5), torch.device("cpu"))
+    net.params.load()
+    x, noise = torch.randn(batch, 1, 5, 5), torch.randn(batch, 1, 5, 5)
+    feats = model.time_features(torch.randint(1, 500, (batch,)))
+    expected = torch.nn.functional.mse_loss(model.forward_features(x, feats), noise)
+    grads = torch.autograd.grad(expected, list(model.parameters()))
+    with torch.no_grad():
+        loss = net.step(x, feats, noise)
+    assert loss.item() == pytest.approx(expected.item(), rel=1e-5)
+    for (p, kind, _), g in zip(net.params.entries, grads):
+        ours = module_layout(net.params.of(p)[1], kind, p.shape)
+        assert torch.allclose(ours, g, rtol=1e-4, atol=1e-5 * g.abs().max().item())
+    copy = UNet()
+    other = FastUNet(copy, (5, 5), torch.device("cpu"))
+    other.params.flat.copy_(net.params.flat)
+    other.params.store()  # the training layout converts back to the module exactly
+    assert all(torch.equal(a, b) for a, b in zip(copy.parameters(), model.parameters()))
+
+
+# -- encoding ------------------------------------------------------------------------------------
+def test_encoding_orders_types_on_one_axis_and_round_trips():
+    codes = np.arange(5)
+    values = encode(codes)
+    # empty < soft < horizontal < vertical < rigid, at -0.8 .. 0.8
+    order = [0, 2, 3, 4, 1]
+    np.testing.assert_allclose(values[order], [-0.8, -0.4, 0.0, 0.4, 0.8], atol=1e-6)
+    assert decode(values).tolist() == codes.tolist()
+    body = random_body(np.random.default_rng(1)).voxels
+    assert np.array_equal(decode(encode(body)), body)
+    # decoding tolerates any real value: clip to the end types, round to the nearest type
+    assert decode(np.array([-50.0, -0.61, -0.59, 0.19, 0.21, 0.59, 0.61, 50.0])).tolist() == [0, 0, 2, 3, 4, 4, 1, 1]
+
+
+def test_uniform_noise_decodes_to_every_type_equally_often():
+    noise = np.random.default_rng(0).uniform(-1, 1, 1_000_000)
+    share = np.bincount(decode(noise), minlength=5) / noise.size
+    np.testing.assert_allclose(share, 0.2, atol=0.003)
+    # scaling [0, 4] (instead of [-0.5, 4.5]) onto [-1, 1] would give the end types only half as much
+    naive = np.rint((noise + 1) * 2).astype(int)
+    assert np.bincount(naive)[0] / noise.size == pytest.approx(0.125, abs=0.003)
+
+
+def test_published_reencoding_is_the_code_map_applied_again_and_again():
+    body = np.array([[0, 1, 2, 3, 4]])
+    assert published_reencoding(body, 0).tolist() == body.tolist()
+    assert published_reencoding(body, 1).tolist() == [EVOGYM_TO_MODEL[body[0]].tolist()]
+    assert published_reencoding(body, 2).tolist() == [[0, 3, 4, 1, 2]]
+    assert published_reencoding(body, 4).tolist() == body.tolist()
+
+
+# -- schedule ------------------------------------------------------------------------------------
+def test_linear_schedule_is_the_thesis_one_and_destroys_the_input():
+    s = make_schedule("linear", 500, 1e-4, 0.02)
+    assert s.steps == 500
+    assert s.betas[0].item() == pytest.approx(1e-4) and s.betas[-1].item() == pytest.approx(0.02)
+    # noising zeros to t = T gives variance 1 - alpha_bar_T = 0.9936: nearly pure noise (thesis table 4.1: 0.9946)
+    assert 1 - s.alpha_bars[-1].item() == pytest.approx(0.9936, abs=1e-3)
+
+
+def test_cosine_schedule_falls_smoothly_to_the_same_noise_level():
+    cosine, linear = make_schedule("cosine", 500, 1e-4, 0.02), make_schedule("linear", 500, 1e-4, 0.02)
+    ab = cosine.alpha_bars
+    assert ab[0].item() > 0.9999 and ab[-1].item() == pytest.approx(linear.alpha_bars[-1].item())
+    assert bool((ab[1:] < ab[:-1]).all())
+    assert cosine.betas.max().item() < 0.05  # stable without clamping
+    assert ab[250].item() > linear.alpha_bars[250].item()  # keeps more signal mid-way
+
+
+# -- training and sampling -----------------------------------------------------------------------
+def test_dataset_repeats_survivors_like_the_author():
+    data = torch.arange(5.0).view(5, 1, 1, 1)
+    out = repeat_to(data, 64).flatten().tolist()
+    assert len(out) == 64 and out[:10] == [0, 1, 2, 3, 4, 0, 1, 2, 3, 4] and out[-4:] == [0, 1, 2, 3]
+
+
+@pytest.fixture(scope="module")
+def one_body_model():
+    """The thesis's experiment of section 4.5: train on copies of a single body, then sample."""
+    schedule = make_schedule("linear", 500, 1e-4, 0.02)
+    trainer = Trainer(schedule)
+    generator = torch.Generator().manual_seed(0)
+    trainer.reset(generator)
+    data = torch.from_numpy(encode(TARGET.voxels))[None, None]
+    result = trainer.fit(data, epochs=EPOCHS_ONE_BODY, generator=generator)
+    samples = decode(ancestral_sample(trainer.model, schedule, 60, (5, 5), generator, torch.device("cpu"))[:, 0].numpy())
+    return result, samples, trainer
+
+
+def test_loss_on_copies_of_one_body_falls_below_0_15(one_body_model):
+    result, *_ = one_body_model
+    assert result.epochs == EPOCHS_ONE_BODY
+    assert result.loss < 0.15  # the thesis reports convergence at about 0.1
+
+
+def test_samples_after_training_resemble_the_body(one_body_model):
+    _, samples, _ = one_body_model
+    distance = (samples != TARGET.voxels).sum(axis=(1, 2))
+    rng = np.random.default_rng(0)
+    random_distance = np.array([(random_body(rng).voxels != TARGET.voxels).sum() for _ in range(200)])
+    assert np.median(random_distance) >= 17
+    # many samples are the body or a few voxels off it, the rest keep its shape with other types or
+    # wander (thesis 4.5); after the default 250 epochs about half to two thirds are within 5 voxels
+    assert np.mean(distance <= 5) >= 0.3
+    assert np.mean(random_distance <= 5) == 0
+    assert np.median(distance) < np.median(random_distance)
+
+
+class Oracle:
+    """The exact noise predictor for a data set holding one point ``x0`` (eps = (x_t - sqrt(ab) x0) / sqrt(1 - ab))."""
+
+    def __init__(self, x0: torch.Tensor, schedule):
+        self.x0, self.ab = x0, schedule.alpha_bars.float()
+
+    def eval(self):
+        return self
+
+    def time_features(self, t):
+        return t
+
+    def forward_features(self, x, t):
+        ab = self.ab[t].view(-1, 1, 1, 1)
+        return (x - ab.sqrt() * self.x0) / (1 - ab).sqrt()
+
+
+@pytest.mark.parametrize("schedule_kind", ["linear", "cosine"])
+def test_samplers_recover_the_data_point_given_the_exact_noise_predictor(schedule_kind):
+    schedule = make_schedule(schedule_kind, 500, 1e-4, 0.02)
+    oracle = Oracle(torch.from_numpy(encode(TARGET.voxels)), schedule)
+    generator = torch.Generator().manual_seed(0)
+    for x in (
+        ancestral_sample(oracle, schedule, 20, (5, 5), generator, torch.device("cpu")),
+        ddim_sample(oracle, schedule, 20, (5, 5), generator, torch.device("cpu"), steps=20),
+    ):
+        assert all(np.array_equal(d, TARGET.voxels) for d in decode(x[:, 0].numpy()))
+
+
+def test_ddim_sampler_draws_from_the_same_trained_model(one_body_model):
+    *_, trainer = one_body_model
+    generator = torch.Generator().manual_seed(1)
+    x = ddim_sample(trainer.model, trainer.schedule, 60, (5, 5), generator, torch.device("cpu"), steps=25)
+    distance = (decode(x[:, 0].numpy()) != TARGET.voxels).sum(axis=(1, 2))
+    assert np.mean(distance <= 5) >= 0.3
+
+
+def test_target_mse_stops_training_when_reached():
+    trainer = Trainer(make_schedule("linear", 500, 1e-4, 0.02))
+    generator = torch.Generator().manual_seed(0)
+    trainer.reset(generator)
+    result = trainer.fit(torch.from_numpy(encode(TARGET.voxels))[None, None], epochs=100, generator=generator, target_loss=0.3)
+    assert result.epochs < 100 and result.loss <= 0.3
+    designer = gda(target_mse=5.0)  # reached by any first epoch
+    run(designer, 2)
+    assert {row["train_epochs"] for row in designer.proposal_info()} == {1}
+
+
+# -- the ask/tell loop ---------------------------------------------------------------------------
+def test_proposals_are_valid_unique_and_never_seen_before():
+    designer = gda()
+    history = run(designer, 5)
+    everything = [b for gen in history for b in gen]
+    assert all(len(gen) == 10 for gen in history)
+    assert all(b.is_valid for b in everything)
+    assert len({b.hash for b in everything}) == len(everything)
+    sources = [row["source"] for row in designer.proposal_info()]
+    assert sources and set(sources) <= {"sampled", "random"}
+
+
+def test_generation_zero_is_evolution_gyms_random_sampler_like_ga():
+    ours = gda(seed=3).ask()
+    ga = make_designer("ga", seed=3, shape=(5, 5), population=10, budget=1000).ask()
+    assert [b.hash for b in ours] == [b.hash for b in ga]
+
+
+@pytest.fixture
+def captured_training(monkeypatch):
+    """Record the bodies every model is trained on."""
+    seen: list[list[str]] = []
+    fit = Trainer.fit
+
+    def spy(self, data, **kwargs):
+        seen.append([Body(b).text for b in decode(data[:, 0].numpy())])
+        return fit(self, data, **kwargs)
+
+    monkeypatch.setattr(Trainer, "fit", spy)
+    return seen
+
+
+def test_survivors_are_never_changed_and_are_what_the_model_learns(captured_training):
+    designer = gda()
+    told: dict[str, float] = {}
+    for generation in range(5):
+        before = [(s.body.text, s.reward) for s in designer.survivors]
+        bodies = designer.ask()
+        if generation:
+            assert captured_training[-1] == [text for text, _ in before]
+        rewards = [reward(b) for b in bodies]
+        told.update({b.text: r for b, r in zip(bodies, rewards)})
+        designer.tell(bodies, rewards)
+        # survivors: the best 5 told so far, each exactly as proposed and with its own reward
+        for s in designer.survivors:
+            assert s.body.text in told and s.reward == told[s.body.text] == reward(s.body)
+        assert sorted(s.reward for s in designer.survivors) == sorted(told.values())[-5:]
+
+
+def test_published_reencoding_option_trains_on_permuted_survivors(captured_training):
+    designer = gda(published_reencoding=True)
+    run(designer, 4)
+    designer.ask()
+    # a body that has survived k earlier trainings is learned as the code map applied k times
+    expected = [Body(published_reencoding(s.body.voxels, s.reencoded - 1)).text for s in designer.survivors]
+    assert captured_training[-1] == expected
+    assert any(s.reencoded > 1 for s in designer.survivors)
+    for s in designer.survivors:  # the recorded bodies themselves are untouched
+        assert s.reward == reward(s.body)
+
+
+def test_published_reencoding_is_off_by_default():
+    assert gda().published_reencoding is False
+
+
+def test_same_seed_gives_the_same_bodies():
+    first = [[b.hash for b in gen] for gen in run(gda(seed=5), 3)]
+    again = [[b.hash for b in gen] for gen in run(gda(seed=5), 3)]
+    other = [[b.hash for b in gen] for gen in run(gda(seed=6), 3)]
+    assert first == again
+    assert first != other
+
+
+def test_sampling_shortfall_falls_back_to_random_bodies_instead_of_crashing():
+    designer = gda(max_samples=3)
+    history = run(designer, 3)
+    info = designer.proposal_info()
+    assert [row["source"] for row in info].count("random") >= 7
+    assert all(row["samples_drawn"] <= 3 for row in info)
+    everything = [b for gen in history for b in gen]
+    assert all(len(gen) == 10 for gen in history) and all(b.is_valid for b in everything)
+    assert len({b.hash for b in everything}) == len(everything)
+
+
+@pytest.mark.parametrize("params", [{}, {"warm_start": True}])
+def test_pickled_designer_resumes_exactly(params):
+    designer = gda(seed=2, **params)
+    run(designer, 2)
+    blob = pickle.dumps(designer)
+    assert len(blob) < 2_000_000
+    resumed = pickle.loads(blob)
+    assert [[b.hash for b in g] for g in run(designer, 2)] == [[b.hash for b in g] for g in run(resumed, 2)]
+
+
+def test_variants_and_options_run():
+    for designer in (gda(schedule="cosine"), gda(sampler="ddim", sample_steps=10), gda(sample_batch=7), gda(temperature=0.5)):
+        history = run(designer, 2)
+        assert all(len(gen) == 10 and all(b.is_valid for b in gen) for gen in history)
+    fast = make_designer("gda-fast", seed=0, shape=(5, 5), population=10, budget=1000)
+    assert isinstance(fast, GenerationalDiffusion) and fast.pool == 500 and fast.sampler == "ddim"
+    fast = make_designer("gda-fast", seed=0, shape=(5, 5), population=10, budget=1000, steps=50, pool=40)
+    assert len(run(fast, 2)[-1]) == 10
+
+
+def test_ridge_regression_learns_a_voxel_sum_reward():
+    rng = np.random.default_rng(0)
+    train = np.stack([random_body(rng).voxels for _ in range(300)])
+    test = np.stack([random_body(rng).voxels for _ in range(200)])
+    predict = ridge_predictor(train, train.sum(axis=(1, 2)).astype(float))
+    assert np.corrcoef(predict(test), test.sum(axis=(1, 2)))[0, 1] > 0.95
+
+
+def test_pool_proposes_the_bodies_the_regression_rates_best(monkeypatch):
+    designer = gda(pool=40)
+    history = run(designer, 3)
+    everything = [b for gen in history for b in gen]
+    assert all(len(gen) == 10 and all(b.is_valid for b in gen) for gen in history)
+    assert len({b.hash for b in everything}) == len(everything)
+    assert designer._seen == {b.hash for b in everything}  # the bodies left in the pool stay unseen
+    # the choice: the best-rated candidates of the pool, in order of rating
+    chosen = {}
+    original = GenerationalDiffusion._most_promising
+
+    def spy(self, candidates, k):
+        picked = original(self, candidates, k)
+        chosen.update(candidates=candidates, picked=picked)
+        return picked
+
+    monkeypatch.setattr(GenerationalDiffusion, "_most_promising", spy)
+    designer.ask()
+    voxels, rewards = zip(*designer.evaluated)
+    predict = ridge_predictor(np.stack(voxels), np.array(rewards))
+    scores = predict(np.stack([b.voxels for b in chosen["candidates"]]))
+    assert len(chosen["candidates"]) == 40
+    assert sorted(predict(np.stack([b.voxels for b in chosen["picked"]])))[0] >= sorted(scores)[-10]
+
+
+def test_prior_bodies_train_the_first_model(tmp_path, captured_training):
+    prior = tmp_path / "prior.txt"
+    prior.write_text("# best bodies of another run\n44444/44444/44444/44444/44443 99\n33333/33333/33333/33333/33333\n")
+    designer = gda(prior=str(prior), prior_top=1)
+    first = designer.ask()
+    assert captured_training == [["44444/44444/44444/44444/44443"]]
+    assert {row["source"] for row in designer.proposal_info()} <= {"sampled", "random"}
+    assert len(first) == 10
+
+
+@pytest.mark.parametrize(
+    "params, message",
+    [
+        ({"sampler": "euler"}, "unknown sampler"),
+        ({"schedule": "quadratic"}, "unknown schedule"),
+        ({"epochs": 0}, "epochs must be a positive integer"),
+        ({"prior": "/nonexistent/run"}, "not found"),
+        ({"threads": 0}, "threads must be at least 1"),
+        ({"temperature": -1}, "temperature must be at least 0"),
+        ({"compile": "sometimes"}, "compile must be"),
+        ({"pool": 5}, "pool must be at least the population"),
+    ],
+)
+def test_bad_parameters_are_one_line_errors(params, message):
+    with pytest.raises(ConfigError, match=message) as info:
+        gda(**params)
+    assert "\n" not in str(info.value)
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="this machine has a GPU")
+def test_asking_for_a_missing_gpu_is_a_clear_error():
+    with pytest.raises(ConfigError, match="no CUDA GPU"):
+        gda(device="cuda")
+    assert gda(device="auto").trainer.device.type == "cpu"
+
+
+def test_designer_state_drops_the_model_when_pickled():
+    designer = gda()
+    run(designer, 2)
+    assert designer._trainer is not None
+    assert pickle.loads(pickle.dumps(designer))._trainer is None
+    assert gda_designer.MAX_PASS >= 50
