@@ -61,6 +61,10 @@ CASES = [
     Case("ga"),
     Case("random"),
     Case("cppn", budget=50, checkpoints=(1, 5, 10, 25, 50)),  # reaches 100 within ~50 evaluations: look earlier
+    # torch's CPU kernels may round differently on another CPU, so gda cases compare medians with slack;
+    # faithful gda: generation 0 plus two trained generations (a full run takes minutes)
+    Case("gda", budget=75, checkpoints=(25, 50, 75), tolerance=4, per_seed=False),
+    Case("gda-fast", budget=200, checkpoints=(50, 100, 200), tolerance=4, per_seed=False),
 ]
 
 
