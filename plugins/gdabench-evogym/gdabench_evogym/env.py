@@ -10,12 +10,15 @@ from __future__ import annotations
 
 import contextlib
 import io
+import os
+from pathlib import Path
 from typing import Any
 
 import gymnasium
 import numpy as np
 
 from gdabench.body import Body
+from gdabench.environment import Controller
 from gdabench.envs.controlled import ControlledEnvironment
 from gdabench.errors import ConfigError
 
@@ -56,6 +59,19 @@ class EvogymTask(ControlledEnvironment):
         if not evogym.is_connected(voxels):
             return "voxels not connected"
         return None
+
+    def render_frames(
+        self, body: Body, *, seed: int, controller: Controller | None = None, workdir: Path | None = None
+    ) -> list[Any] | None:
+        """Frames for report animations, only with an X display (e.g. under ``xvfb-run``).
+
+        Evolution Gym renders through GLFW, which crashes the whole process (SIGSEGV) when there
+        is no display, so without one there is no animation (the report says so) and the run's
+        results and report survive.
+        """
+        if not os.environ.get("DISPLAY"):
+            return None
+        return super().render_frames(body, seed=seed, controller=controller, workdir=workdir)
 
     def make_env(self, body: Body, **kwargs: Any) -> gymnasium.Env:
         env = gymnasium.make(self.task, body=body.voxels.astype(float), **kwargs)

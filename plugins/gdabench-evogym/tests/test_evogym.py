@@ -6,6 +6,7 @@ import contextlib
 import io
 import json
 import math
+import os
 import subprocess
 import sys
 
@@ -56,14 +57,18 @@ def test_open_loop_drives_the_actuators_deterministically():
     assert abs(still) < 0.2 < abs(moving)  # the muscles, found through actuator_voxels, move the body
 
 
-def test_compare_end_to_end(tmp_path):
+def test_compare_end_to_end_with_its_report_on_a_headless_machine(tmp_path):
+    """Without a display Evolution Gym's renderer would crash the process: the report skips the animation."""
     out = tmp_path / "run"
     cmd = [sys.executable, "-m", "gdabench", "compare", "--designers", "ga,random", "--env", "evogym/Walker-v0",
-           "--controller", "open-loop", "-C", "trials=1", "--budget", "30", "--seeds", "0", "--out", str(out), "-q", "--no-report"]  # fmt: skip
-    result = subprocess.run(cmd, capture_output=True, text=True)
+           "--controller", "open-loop", "-C", "trials=1", "--budget", "30", "--seeds", "0", "--out", str(out), "-q"]  # fmt: skip
+    headless = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
+    result = subprocess.run(cmd, capture_output=True, text=True, env=headless)
     assert result.returncode == 0, result.stderr
     meta = json.loads((out / "run.json").read_text())
     assert meta["status"] == "complete" and meta["versions"]["plugins"]["gdabench-evogym"] == "0.1.0"
+    assert (out / "report" / "report.html").exists() and (out / "report" / "best_so_far.png").exists()
+    assert not list((out / "report").glob("animation_*.gif"))
 
 
 def test_ppo_trains_on_evolution_gym(tmp_path):
