@@ -330,7 +330,7 @@ def test_variants_and_options_run():
         history = run(designer, 2)
         assert all(len(gen) == 10 and all(b.is_valid for b in gen) for gen in history)
     fast = make_designer("gda-fast", seed=0, shape=(5, 5), population=10, budget=1000)
-    assert isinstance(fast, GenerationalDiffusion) and fast.pool == 500 and fast.sampler == "ddim"
+    assert isinstance(fast, GenerationalDiffusion) and fast.pool == 1000 and fast.max_samples == 2000 and fast.sampler == "ddim"
     fast = make_designer("gda-fast", seed=0, shape=(5, 5), population=10, budget=1000, steps=50, pool=40)
     assert len(run(fast, 2)[-1]) == 10
 
