@@ -22,7 +22,7 @@ from gdabench.designers.gda.runtime import torch_threads
 from gdabench.designers.gda.sampling import ancestral_sample, ddim_sample
 from gdabench.designers.gda.schedule import make_schedule
 from gdabench.designers.gda.surrogate import ridge_predictor
-from gdabench.designers.gda.training import Trainer, repeat_to
+from gdabench.designers.gda.training import FlatAdamW, Trainer, repeat_to
 
 from gda_reference import RefUNet
 
@@ -93,6 +93,24 @@ def test_hand_derived_training_step_matches_autograd(batch):
     other.params.flat.copy_(net.params.flat)
     other.params.store()  # the training layout converts back to the module exactly
     assert all(torch.equal(a, b) for a, b in zip(copy.parameters(), model.parameters()))
+
+
+def test_flat_adamw_takes_exactly_torch_adamw_steps():
+    """The trainer's optimizer skips torch.optim's wrapper, not its arithmetic."""
+    gen = torch.Generator().manual_seed(3)
+    start = torch.randn(1000, generator=gen)
+    ours, theirs = start.clone(), torch.nn.Parameter(start.clone())
+    grad = torch.zeros(1000)
+    flat = FlatAdamW(ours, grad, lr=1e-3, weight_decay=0.01)
+    reference = torch.optim.AdamW([theirs], lr=1e-3, weight_decay=0.01, fused=True)
+    for _ in range(20):
+        g = torch.randn(1000, generator=gen)
+        grad.copy_(g)
+        theirs.grad = g.clone()
+        flat.step()
+        reference.step()
+        assert torch.equal(ours, theirs.detach())
+    assert not torch.equal(ours, start)
 
 
 # -- encoding ------------------------------------------------------------------------------------
