@@ -8,8 +8,8 @@ minimises the MSE between the true and the predicted noise.
 What makes it fast is not the arithmetic but the overhead around it (a step is a few
 milliseconds of tiny kernels): the forward and backward passes are hand-derived
 (:mod:`.backprop`), all parameters and gradients live in two flat buffers so the optimizer is
-one fused kernel over 90,833 numbers (called directly: :class:`FlatAdamW`), each epoch's shuffle, timesteps, noise and noisy inputs
-are drawn and computed in a handful of batched operations, and the time features of every
+one fused kernel over 90,833 numbers (called directly: :class:`FlatAdamW`), each epoch's
+shuffle, timesteps, noise and noisy inputs are drawn and computed in a handful of batched operations, and the time features of every
 timestep are tabulated once.
 """
 
@@ -46,9 +46,9 @@ class FlatAdamW:
     """AdamW over one flat parameter: ``torch.optim.AdamW(fused=True)``'s kernel without its wrapper.
 
     The optimizer's Python bookkeeping (grouping by device and dtype, hooks, profiling
-    records) costs several times the fused kernel at this size and runs 3,250 times per
-    faithful generation; the update itself is the same call on the same state, so the
-    numbers are identical (tested against ``torch.optim.AdamW``).
+    records) runs 3,250 times per faithful generation; skipping it saved about 5% of an eager
+    epoch and 1% of a compiled one on a quiet machine. The update itself is the same call on
+    the same state, so the numbers are identical (tested against ``torch.optim.AdamW``).
     """
 
     def __init__(self, param: torch.Tensor, grad: torch.Tensor, *, lr: float, weight_decay: float, betas: tuple[float, float] = (0.9, 0.999), eps: float = 1e-8):
