@@ -9,8 +9,8 @@ What makes it fast is not the arithmetic but the overhead around it (a step is a
 milliseconds of tiny kernels): the forward and backward passes are hand-derived
 (:mod:`.backprop`), all parameters and gradients live in two flat buffers so the optimizer is
 one fused kernel over 90,833 numbers (called directly: :class:`FlatAdamW`), each epoch's
-shuffle, timesteps, noise and noisy inputs are drawn and computed in a handful of batched operations, and the time features of every
-timestep are tabulated once.
+shuffle, timesteps, noise and noisy inputs are drawn and computed in a handful of batched
+operations, and the time features of every timestep are tabulated once.
 """
 
 from __future__ import annotations
