@@ -24,6 +24,7 @@ from .model import DoubleConv, SelfAttention, UNet
 
 aten = torch.ops.aten
 EPS = 1e-5  # GroupNorm's and LayerNorm's default
+Saved = tuple  # what a layer's forward keeps for its backward (returned, never stored on the layer)
 
 
 class FlatParameters:
@@ -126,17 +127,17 @@ class Conv:
             self._batched[b] = index
         return index
 
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         b = x.shape[0]
         padded = torch.cat([x.reshape(b * self.n_in, self.c_in), x.new_zeros(1, self.c_in)])
-        self.cols = padded.index_select(0, self.batched_index(b)).view(b * self.n_out, -1)
-        y = torch.mm(self.cols, self.w) if self.b is None else torch.addmm(self.b, self.cols, self.w)
-        return y.view(b, self.n_out, self.c_out)
+        cols = padded.index_select(0, self.batched_index(b)).view(b * self.n_out, -1)
+        y = torch.mm(cols, self.w) if self.b is None else torch.addmm(self.b, cols, self.w)
+        return y.view(b, self.n_out, self.c_out), cols
 
-    def backward(self, g: torch.Tensor, input_grad: bool = True) -> torch.Tensor | None:
+    def backward(self, g: torch.Tensor, cols: torch.Tensor, input_grad: bool = True) -> torch.Tensor | None:
         b = g.shape[0]
         g2 = g.reshape(-1, self.c_out)
-        torch.mm(self.cols.t(), g2, out=self.gw)
+        torch.mm(cols.t(), g2, out=self.gw)
         if self.gb is not None:
             torch.sum(g2, 0, out=self.gb)
         if not input_grad:
@@ -153,17 +154,17 @@ class GroupNorm1:
         self.gamma, self.g_gamma = params.of(norm.weight)
         self.beta, self.g_beta = params.of(norm.bias)
 
-    def forward(self, h: torch.Tensor) -> torch.Tensor:
+    def forward(self, h: torch.Tensor) -> tuple[torch.Tensor, Saved]:
         b, n, c = h.shape
-        self.h = h
-        self.xhat, self.mean, self.rstd = aten.native_group_norm(h, None, None, b, n, c, 1, EPS)
-        return torch.addcmul(self.beta, self.xhat, self.gamma)
+        xhat, mean, rstd = aten.native_group_norm(h, None, None, b, n, c, 1, EPS)
+        return torch.addcmul(self.beta, xhat, self.gamma), (h, xhat, mean, rstd)
 
-    def backward(self, g: torch.Tensor) -> torch.Tensor:
+    def backward(self, g: torch.Tensor, saved: Saved) -> torch.Tensor:
+        h, xhat, mean, rstd = saved
         b, n, c = g.shape
-        torch.sum(g * self.xhat, (0, 1), out=self.g_gamma)
+        torch.sum(g * xhat, (0, 1), out=self.g_gamma)
         torch.sum(g, (0, 1), out=self.g_beta)
-        return aten.native_group_norm_backward(g * self.gamma, self.h, self.mean, self.rstd, None, b, n, c, 1, [True, False, False])[0]
+        return aten.native_group_norm_backward(g * self.gamma, h, mean, rstd, None, b, n, c, 1, [True, False, False])[0]
 
 
 class FastDoubleConv:
@@ -174,19 +175,23 @@ class FastDoubleConv:
         self.norm2 = GroupNorm1(params, block.norm2)
         self.residual = block.residual
 
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
-        self.a1 = self.norm1.forward(self.conv1.forward(x))
-        h = self.norm2.forward(self.conv2.forward(F.gelu(self.a1)))
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, Saved]:
+        h, cols1 = self.conv1.forward(x)
+        a1, norm1 = self.norm1.forward(h)
+        h, cols2 = self.conv2.forward(F.gelu(a1))
+        h, norm2 = self.norm2.forward(h)
+        saved = (cols1, norm1, a1, cols2, norm2)
         if not self.residual:
-            return h
-        self.s = x + h
-        return F.gelu(self.s)
+            return h, saved
+        s = x + h
+        return F.gelu(s), (*saved, s)
 
-    def backward(self, g: torch.Tensor, input_grad: bool = True) -> torch.Tensor | None:
+    def backward(self, g: torch.Tensor, saved: Saved, input_grad: bool = True) -> torch.Tensor | None:
+        cols1, norm1, a1, cols2, norm2 = saved[:5]
         if self.residual:
-            g = aten.gelu_backward(g, self.s)
-        g_mid = aten.gelu_backward(self.conv2.backward(self.norm2.backward(g)), self.a1)
-        gx = self.conv1.backward(self.norm1.backward(g_mid), input_grad)
+            g = aten.gelu_backward(g, saved[5])
+        g_mid = aten.gelu_backward(self.conv2.backward(self.norm2.backward(g, norm2), cols2), a1)
+        gx = self.conv1.backward(self.norm1.backward(g_mid, norm1), cols1, input_grad)
         return gx + g if self.residual and gx is not None else gx
 
 
@@ -198,12 +203,11 @@ class TimeProjection:
         self.b, self.gb = params.of(linear.bias)
 
     def forward(self, h: torch.Tensor, t_feat: torch.Tensor) -> torch.Tensor:
-        self.t_feat = t_feat
         return h + torch.addmm(self.b, t_feat, self.w)[:, None, :]
 
-    def backward(self, g: torch.Tensor) -> torch.Tensor:
+    def backward(self, g: torch.Tensor, t_feat: torch.Tensor) -> torch.Tensor:
         g_e = g.sum(1)
-        torch.mm(self.t_feat.t(), g_e, out=self.gw)
+        torch.mm(t_feat.t(), g_e, out=self.gw)
         torch.sum(g_e, 0, out=self.gb)
         return g
 
@@ -214,11 +218,10 @@ class Linear:
         self.b, self.gb = params.of(linear.bias)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        self.x = x
         return torch.addmm(self.b, x, self.w)
 
-    def backward(self, g: torch.Tensor) -> torch.Tensor:
-        torch.mm(self.x.t(), g, out=self.gw)
+    def backward(self, g: torch.Tensor, x: torch.Tensor) -> torch.Tensor:
+        torch.mm(x.t(), g, out=self.gw)
         torch.sum(g, 0, out=self.gb)
         return torch.mm(g, self.w.t())
 
@@ -229,13 +232,13 @@ class LayerNorm:
         self.b, self.gb = params.of(norm.bias)
         self.shape = list(norm.normalized_shape)
 
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
-        self.x = x
-        y, self.mean, self.rstd = aten.native_layer_norm(x, self.shape, self.w, self.b, EPS)
-        return y
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, Saved]:
+        y, mean, rstd = aten.native_layer_norm(x, self.shape, self.w, self.b, EPS)
+        return y, (x, mean, rstd)
 
-    def backward(self, g: torch.Tensor) -> torch.Tensor:
-        gx, gw, gb = aten.native_layer_norm_backward(g, self.x, self.shape, self.mean, self.rstd, self.w, self.b, [True, True, True])
+    def backward(self, g: torch.Tensor, saved: Saved) -> torch.Tensor:
+        x, mean, rstd = saved
+        gx, gw, gb = aten.native_layer_norm_backward(g, x, self.shape, mean, rstd, self.w, self.b, [True, True, True])
         self.gw.copy_(gw)
         self.gb.copy_(gb)
         return gx
@@ -253,32 +256,38 @@ class FastAttention:
         self.ff1 = Linear(params, block.ff[1])
         self.ff2 = Linear(params, block.ff[3])
 
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, Saved]:
         b, n, c = x.shape
         h, d = self.heads, c // self.heads
-        self.dims = (b, n, c, h, d)
-        self.scale = d**-0.5
-        qkv = self.in_proj.forward(self.norm.forward(x).view(b * n, c))
+        normed, norm = self.norm.forward(x)
+        normed = normed.view(b * n, c)
+        qkv = self.in_proj.forward(normed)
         q, k, v = qkv.view(b, n, 3, h, d).permute(2, 0, 3, 1, 4).reshape(3, b * h, n, d)
-        self.q, self.k, self.v = q, k, v
-        self.p = torch.softmax(torch.baddbmm(q.new_empty(()), q, k.transpose(1, 2), beta=0.0, alpha=self.scale), -1)
-        att = torch.bmm(self.p, v).view(b, h, n, d).transpose(1, 2).reshape(b * n, c)
+        p = torch.softmax(torch.baddbmm(q.new_empty(()), q, k.transpose(1, 2), beta=0.0, alpha=d**-0.5), -1)
+        att = torch.bmm(p, v).view(b, h, n, d).transpose(1, 2).reshape(b * n, c)
         y = x + self.out_proj.forward(att).view(b, n, c)
-        self.f1 = self.ff1.forward(self.ff_norm.forward(y).view(b * n, c))
-        return y + self.ff2.forward(F.gelu(self.f1)).view(b, n, c)
+        ff_in, ff_norm = self.ff_norm.forward(y)
+        ff_in = ff_in.view(b * n, c)
+        f1 = self.ff1.forward(ff_in)
+        f1_act = F.gelu(f1)
+        return y + self.ff2.forward(f1_act).view(b, n, c), (norm, normed, q, k, v, p, att, ff_norm, ff_in, f1, f1_act)
 
-    def backward(self, g: torch.Tensor) -> torch.Tensor:
-        b, n, c, h, d = self.dims
-        g_f1 = aten.gelu_backward(self.ff2.backward(g.reshape(b * n, c)), self.f1)
-        g_y = g + self.ff_norm.backward(self.ff1.backward(g_f1).view(b, n, c))
-        g_att = self.out_proj.backward(g_y.view(b * n, c)).view(b, n, h, d).transpose(1, 2).reshape(b * h, n, d)
-        g_p = torch.bmm(g_att, self.v.transpose(1, 2))
-        g_v = torch.bmm(self.p.transpose(1, 2), g_att)
-        g_s = aten._softmax_backward_data(g_p, self.p, -1, g_p.dtype)
-        g_q = torch.bmm(g_s, self.k).mul_(self.scale)
-        g_k = torch.bmm(g_s.transpose(1, 2), self.q).mul_(self.scale)
+    def backward(self, g: torch.Tensor, saved: Saved) -> torch.Tensor:
+        norm, normed, q, k, v, p, att, ff_norm, ff_in, f1, f1_act = saved
+        b, n, c = g.shape
+        h = self.heads
+        d = c // h
+        scale = d**-0.5
+        g_f1 = aten.gelu_backward(self.ff2.backward(g.reshape(b * n, c), f1_act), f1)
+        g_y = g + self.ff_norm.backward(self.ff1.backward(g_f1, ff_in).view(b, n, c), ff_norm)
+        g_att = self.out_proj.backward(g_y.view(b * n, c), att).view(b, n, h, d).transpose(1, 2).reshape(b * h, n, d)
+        g_p = torch.bmm(g_att, v.transpose(1, 2))
+        g_v = torch.bmm(p.transpose(1, 2), g_att)
+        g_s = aten._softmax_backward_data(g_p, p, -1, g_p.dtype)
+        g_q = torch.bmm(g_s, k).mul_(scale)
+        g_k = torch.bmm(g_s.transpose(1, 2), q).mul_(scale)
         g_qkv = torch.stack([g_q, g_k, g_v]).view(3, b, h, n, d).permute(1, 3, 0, 2, 4).reshape(b * n, 3 * c)
-        return g_y + self.norm.backward(self.in_proj.backward(g_qkv).view(b, n, c))
+        return g_y + self.norm.backward(self.in_proj.backward(g_qkv, normed).view(b, n, c), norm)
 
 
 class FastUNet:
@@ -307,36 +316,48 @@ class FastUNet:
         self.upsample = F.interpolate(basis, size=size, mode="bilinear", align_corners=True).view(low[0] * low[1], -1).t().contiguous()
         self.cells, self.low_cells = size[0] * size[1], low[0] * low[1]
 
-    def forward(self, x: torch.Tensor, t_feat: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Predicted noise (b, 1, H, W) for noisy bodies ``x`` and the skip activations.
+    def forward(self, x: torch.Tensor, t_feat: torch.Tensor) -> tuple[torch.Tensor, Saved]:
+        """Predicted noise (b, 1, H, W) for noisy bodies ``x`` and what the backward pass needs.
 
         ``t_feat`` holds one row of time features per body, or one row for all of them.
         """
         b = x.shape[0]
-        skip = self.inc.forward(x.reshape(b, self.cells, 1))
-        h = self.down_conv.forward(self.down_res.forward(self.down.forward(skip)))
-        h = self.att_low.forward(self.down_time.forward(h, t_feat))
+        skip, inc = self.inc.forward(x.reshape(b, self.cells, 1))
+        h, down = self.down.forward(skip)
+        h, down_res = self.down_res.forward(h)
+        h, down_conv = self.down_conv.forward(h)
+        h, att_low = self.att_low.forward(self.down_time.forward(h, t_feat))
+        bottleneck = []
         for block in self.bottleneck:
-            h = block.forward(h)
+            h, saved = block.forward(h)
+            bottleneck.append(saved)
         h = torch.cat([skip, torch.matmul(self.upsample, h)], 2)
-        h = self.up_time.forward(self.up_conv.forward(self.up_res.forward(h)), t_feat)
-        h = self.att_high.forward(h)
-        return self.out.forward(h.reshape(b * self.cells, -1)).view_as(x), skip
+        h, up_res = self.up_res.forward(h)
+        h, up_conv = self.up_conv.forward(h)
+        h, att_high = self.att_high.forward(self.up_time.forward(h, t_feat))
+        h = h.reshape(b * self.cells, -1)
+        saved = (inc, down, down_res, down_conv, att_low, bottleneck, up_res, up_conv, att_high, h, skip.shape[2])
+        return self.out.forward(h).view_as(x), saved
 
     def step(self, x: torch.Tensor, t_feat: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
-        """MSE between ``noise`` and the prediction for noisy bodies ``x`` (b, 1, H, W); fills the gradient."""
+        """MSE between ``noise`` and the prediction for noisy bodies ``x`` (b, 1, H, W); fills the gradient.
+
+        A pure function of its arguments and the parameters (nothing is stored on the layers),
+        so under ``torch.compile`` a call has no Python side effects to replay.
+        """
         b = x.shape[0]
-        prediction, skip = self.forward(x, t_feat)
+        prediction, (inc, down, down_res, down_conv, att_low, bottleneck, up_res, up_conv, att_high, h, c_skip) = self.forward(x, t_feat)
         diff = prediction - noise
         loss = diff.pow(2).mean()
 
-        g = self.att_high.backward(self.out.backward(diff.reshape(-1, 1) * (2.0 / diff.numel())).view(b, self.cells, -1))
-        g = self.up_res.backward(self.up_conv.backward(self.up_time.backward(g)))
-        c_skip = skip.shape[2]
+        g = self.out.backward(diff.reshape(-1, 1) * (2.0 / diff.numel()), h).view(b, self.cells, -1)
+        g = self.up_time.backward(self.att_high.backward(g, att_high), t_feat)
+        g = self.up_res.backward(self.up_conv.backward(g, up_conv), up_res)
         g_skip, g_up = g[:, :, :c_skip], g[:, :, c_skip:]
         g = torch.matmul(self.upsample.t(), g_up)
-        for block in reversed(self.bottleneck):
-            g = block.backward(g)
-        g = self.down.backward(self.down_res.backward(self.down_conv.backward(self.down_time.backward(self.att_low.backward(g)))))
-        self.inc.backward(g + g_skip, input_grad=False)
+        for block, saved in zip(reversed(self.bottleneck), reversed(bottleneck)):
+            g = block.backward(g, saved)
+        g = self.down_time.backward(self.att_low.backward(g, att_low), t_feat)
+        g = self.down.backward(self.down_res.backward(self.down_conv.backward(g, down_conv), down_res), down)
+        self.inc.backward(g + g_skip, inc, input_grad=False)
         return loss
