@@ -316,6 +316,16 @@ class FastUNet:
         self.upsample = F.interpolate(basis, size=size, mode="bilinear", align_corners=True).view(low[0] * low[1], -1).t().contiguous()
         self.cells, self.low_cells = size[0] * size[1], low[0] * low[1]
 
+    def prepare(self, batch: int) -> None:
+        """Build every convolution's neighbour index for ``batch`` bodies ahead of compiling.
+
+        Built during the first compiled call instead, the index would be traced into that graph
+        and its caching would force a second compilation on the next call.
+        """
+        blocks = [self.inc, self.down_res, self.down_conv, *self.bottleneck, self.up_res, self.up_conv]
+        for conv in [self.down, *(c for block in blocks for c in (block.conv1, block.conv2))]:
+            conv.batched_index(batch)
+
     def forward(self, x: torch.Tensor, t_feat: torch.Tensor) -> tuple[torch.Tensor, Saved]:
         """Predicted noise (b, 1, H, W) for noisy bodies ``x`` and what the backward pass needs.
 

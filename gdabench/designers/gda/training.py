@@ -111,6 +111,7 @@ class Trainer:
 
     def _compile(self, size: int) -> Callable[..., torch.Tensor]:
         """``torch.compile`` the step for one batch size; on any failure warn once and stay eager."""
+        self.net.prepare(size)
         compiled = torch.compile(self.net.step, dynamic=False)
 
         def first_call(*args: torch.Tensor) -> torch.Tensor:
