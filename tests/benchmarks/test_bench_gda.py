@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 import torch
 import torch.nn.functional as F
+from torch._dynamo.utils import counters
 from torch.utils.data import DataLoader
 
 from gdabench import make_designer, random_body
@@ -54,7 +55,9 @@ def test_train_epoch(benchmark, compiled):
     trainer = Trainer(SCHEDULE, compile=compiled)
     generator = torch.Generator().manual_seed(0)
     trainer.reset(generator)
-    trainer.fit(SURVIVORS, epochs=1, generator=generator)  # compiles, if asked
+    counters.clear()
+    trainer.fit(SURVIVORS, epochs=2, generator=generator)  # compiles, if asked
+    assert counters["stats"]["unique_graphs"] == (1 if compiled else 0)  # one graph, no recompilation
     result = benchmark(lambda: trainer.fit(SURVIVORS, epochs=1, generator=generator))
     assert result.epochs == 1
 
