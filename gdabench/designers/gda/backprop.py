@@ -180,16 +180,13 @@ class FastDoubleConv:
         a1, norm1 = self.norm1.forward(h)
         h, cols2 = self.conv2.forward(F.gelu(a1))
         h, norm2 = self.norm2.forward(h)
-        saved = (cols1, norm1, a1, cols2, norm2)
-        if not self.residual:
-            return h, saved
-        s = x + h
-        return F.gelu(s), (*saved, s)
+        s = x + h if self.residual else None
+        return (h if s is None else F.gelu(s)), (cols1, norm1, a1, cols2, norm2, s)
 
     def backward(self, g: torch.Tensor, saved: Saved, input_grad: bool = True) -> torch.Tensor | None:
-        cols1, norm1, a1, cols2, norm2 = saved[:5]
-        if self.residual:
-            g = aten.gelu_backward(g, saved[5])
+        cols1, norm1, a1, cols2, norm2, s = saved
+        if s is not None:
+            g = aten.gelu_backward(g, s)
         g_mid = aten.gelu_backward(self.conv2.backward(self.norm2.backward(g, norm2), cols2), a1)
         gx = self.conv1.backward(self.norm1.backward(g_mid, norm1), cols1, input_grad)
         return gx + g if self.residual and gx is not None else gx
