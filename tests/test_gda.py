@@ -6,6 +6,7 @@ tests about what training achieves use the thesis's T = 500.
 
 from __future__ import annotations
 
+import contextlib
 import pickle
 
 import numpy as np
@@ -21,6 +22,7 @@ from gdabench.designers.gda.model import UNet, parameter_count
 from gdabench.designers.gda.runtime import torch_threads
 from gdabench.designers.gda.sampling import ancestral_sample, ddim_sample
 from gdabench.designers.gda.schedule import make_schedule
+from gdabench.designers.gda import speculation
 from gdabench.designers.gda.surrogate import ridge_predictor
 from gdabench.designers.gda.training import FlatAdamW, Trainer, repeat_to
 
@@ -249,6 +251,15 @@ def test_target_mse_stops_training_when_reached():
     assert {row["train_epochs"] for row in designer.proposal_info()} == {1}
 
 
+def test_fit_stops_when_asked_to():
+    trainer = Trainer(make_schedule("linear", 50, 1e-4, 0.02))
+    generator = torch.Generator().manual_seed(0)
+    trainer.reset(generator)
+    asked = []
+    result = trainer.fit(torch.from_numpy(encode(TARGET.voxels))[None, None], epochs=10, generator=generator, stop=lambda: len(asked.append(1) or asked) > 3)
+    assert result.epochs == 3 and len(asked) == 4
+
+
 # -- the ask/tell loop ---------------------------------------------------------------------------
 def test_proposals_are_valid_unique_and_never_seen_before():
     designer = gda()
@@ -333,7 +344,7 @@ def test_sampling_shortfall_falls_back_to_random_bodies_instead_of_crashing():
     assert len({b.hash for b in everything}) == len(everything)
 
 
-@pytest.mark.parametrize("params", [{}, {"warm_start": True}])
+@pytest.mark.parametrize("params", [{}, {"warm_start": True}, {"speculate": True}])
 def test_pickled_designer_resumes_exactly(params):
     designer = gda(seed=2, **params)
     run(designer, 2)
@@ -407,6 +418,8 @@ def test_prior_bodies_train_the_first_model(tmp_path, captured_training):
         ({"temperature": -1}, "temperature must be at least 0"),
         ({"compile": "sometimes"}, "compile must be"),
         ({"pool": 5}, "pool must be at least the population"),
+        ({"speculate": "sometimes"}, "speculate must be"),
+        ({"speculate": True, "warm_start": True}, "speculate=true needs"),
     ],
 )
 def test_bad_parameters_are_one_line_errors(params, message):
@@ -428,3 +441,42 @@ def test_designer_state_drops_the_model_when_pickled():
     assert designer._trainer is not None
     assert pickle.loads(pickle.dumps(designer))._trainer is None
     assert gda_designer.MAX_PASS >= 50
+
+
+# -- training ahead on a second core -------------------------------------------------------------
+#: rewards per generation: generation 1 and 3 score 0 (the survivors stay: the next model was
+#: trained ahead), generation 2 beats everything (the survivors change: trained anew)
+SCHEDULED_REWARDS = {1: 0.0, 2: 1000.0, 3: 0.0}
+
+
+def run_scheduled(designer, generations: int) -> tuple[list[list[str]], list[bool]]:
+    bodies, ahead = [], []
+    for generation in range(generations):
+        proposed = designer.ask()
+        bodies.append([b.hash for b in proposed])
+        ahead.append(bool(designer.proposal_info()[0].get("trained_ahead")))
+        designer.tell(proposed, [SCHEDULED_REWARDS.get(generation, reward(b)) for b in proposed])
+    return bodies, ahead
+
+
+def test_training_ahead_gives_exactly_the_same_run():
+    plain, plain_ahead = run_scheduled(gda(seed=3, speculate=False), 5)
+    fast, fast_ahead = run_scheduled(gda(seed=3, speculate=True), 5)
+    assert fast == plain
+    assert plain_ahead == [False] * 5
+    assert fast_ahead == [False, False, True, False, True]  # used whenever the survivors stayed
+
+
+def test_a_dead_training_process_costs_the_overlap_not_the_run():
+    plain, _ = run_scheduled(gda(seed=4, speculate=False), 4)
+    designer = gda(seed=4, speculate=True)
+    bodies = []
+    for generation in range(4):
+        if generation == 2:
+            speculation._WORKERS[designer._worker_config()]._process.kill()
+        with pytest.warns(RuntimeWarning, match="training in this process") if generation == 2 else contextlib.nullcontext():
+            proposed = designer.ask()
+        bodies.append([b.hash for b in proposed])
+        designer.tell(proposed, [SCHEDULED_REWARDS.get(generation, reward(b)) for b in proposed])
+    assert bodies == plain
+    assert designer.speculate is False

@@ -110,10 +110,13 @@ def test_sampling_pass_author_style(benchmark):
 
 @pytest.mark.parametrize("compiled", [False, True], ids=["eager", "compiled"])
 def test_generation(benchmark, compiled):
-    """One whole faithful generation: train a fresh model for 250 epochs, sample 25 new bodies."""
+    """One whole faithful generation: train a fresh model for 250 epochs, sample 25 new bodies.
+
+    On one core (no training ahead), like the author's code it is compared with.
+    """
     if compiled:
         needs_enabled(benchmark)
-    designer = make_designer("gda", seed=0, population=25, budget=10_000, compile=compiled)
+    designer = make_designer("gda", seed=0, population=25, budget=10_000, compile=compiled, speculate=False)
     bodies = designer.ask()
     designer.tell(bodies, [float(np.asarray(b.voxels).sum()) for b in bodies])
     state = designer.__getstate__()

@@ -28,13 +28,17 @@ Options beyond the thesis (each measured against the faithful setting in the REA
 bodies than needed and propose those a reward regression rates best), ``prior`` (train
 generation 0's model on the best bodies of another run instead of sampling at random).
 Speed options that keep the results' distribution: ``compile`` (``torch.compile`` the
-training step), ``threads``, ``device``.
+training step), ``threads``, ``device``; ``speculate`` (train the next generation's model on a
+second core while this one samples, see :mod:`.speculation`) leaves the results unchanged
+bit for bit.
 """
 
 from __future__ import annotations
 
 import math
+import os
 import time
+import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -49,13 +53,15 @@ from .encoding import decode, encode, published_reencoding
 from .runtime import check_threads, resolve_device, torch_threads
 from .sampling import SAMPLERS, ancestral_sample, ddim_sample
 from .schedule import make_schedule
+from .speculation import WorkerConfig, WorkerError, discard_worker, training_worker
 from .surrogate import ridge_predictor
-from .training import Trainer, TrainResult
+from .training import Trainer, TrainJob, TrainResult
 
 TORCH_STREAM = 1  # spawn-key branch of the designer's seed used for torch (weights, noise)
 MAX_PASS = 256  # most samples denoised in one pass when the pass size adapts
-#: compile='auto' compiles the training step when a run trains at least this many steps: about
-#: where the ~1.1 ms saved per step repays a first-time compilation (1-2 minutes) on a 2-core CPU
+#: compile='auto' compiles the training step, and speculate='auto' trains ahead on a second
+#: core, when a run trains at least this many steps: about where the ~1 ms saved per step
+#: repays a first-time compilation (under a minute) on a 2-core CPU
 AUTO_COMPILE_STEPS = 50_000
 #: trainers shared by the designers of one process (they run one after another): every
 #: generation starts from fresh weights anyway, and sharing compiles the step only once
@@ -100,6 +106,7 @@ class GenerationalDiffusion(Designer):
         device: str = "cpu",
         threads: int | None = 1,
         compile: bool | str = "auto",
+        speculate: bool | str = "auto",
         **kwargs: Any,
     ):
         super().__init__(**kwargs)
@@ -144,6 +151,11 @@ class GenerationalDiffusion(Designer):
         if compile not in (True, False, "auto"):
             raise ConfigError(f"gda: compile must be true, false or auto, got {compile!r}")
         self.compile = compile
+        if speculate not in (True, False, "auto"):
+            raise ConfigError(f"gda: speculate must be true, false or auto, got {speculate!r}")
+        if speculate is True and (self.warm_start or self.published_reencoding or resolve_device(device).type != "cpu"):
+            raise ConfigError("gda: speculate=true needs device=cpu and neither warm_start nor published_reencoding")
+        self.speculate = speculate
         self.prior_bodies = load_prior(prior, prior_top, self.shape) if prior else []
 
         self.survivors: list[Survivor] = []
@@ -155,6 +167,7 @@ class GenerationalDiffusion(Designer):
         self._acceptance = 0.5  # running estimate of the share of samples that are new and valid
         self._weights: torch.Tensor | None = None  # previous model's weights, kept only to warm-start
         self._trainer: Trainer | None = None
+        self._trained_ahead = False
 
     # -- ask/tell ------------------------------------------------------------------------------
     def ask(self) -> list[Body]:
@@ -172,6 +185,8 @@ class GenerationalDiffusion(Designer):
         else:
             generator = self._torch_generator()
             trained = self._train(training_set, generator)
+            if self.survivors and self.evaluations + wanted < self.budget:  # not after a prior: survivors unknown yet
+                self._train_ahead(training_set)
             start = time.perf_counter()
             if self.pool is None:
                 sampled, drawn = self._sample_new(wanted, generator)
@@ -185,6 +200,7 @@ class GenerationalDiffusion(Designer):
                 "train_epochs": trained.epochs,
                 "train_loss": trained.loss,
                 "train_seconds": trained.seconds,
+                "trained_ahead": self._trained_ahead,
                 "samples_drawn": drawn,
                 "sample_seconds": sample_seconds,
             }
@@ -216,43 +232,79 @@ class GenerationalDiffusion(Designer):
             return [np.array(b.voxels) for b in self.prior_bodies]
         return None
 
+    def _torch_seed(self, generation: int) -> int:
+        """Generation ``generation``'s torch seed, derived from the run's seed alone (so resume is exact)."""
+        ss = np.random.SeedSequence(self.seed_sequence.entropy, spawn_key=(*self.seed_sequence.spawn_key, TORCH_STREAM, generation))
+        return int(ss.generate_state(1, dtype=np.uint64)[0] >> np.uint64(1))
+
     def _torch_generator(self) -> torch.Generator:
-        """This generation's torch stream, derived from the seed alone (so resume is exact)."""
-        ss = np.random.SeedSequence(self.seed_sequence.entropy, spawn_key=(*self.seed_sequence.spawn_key, TORCH_STREAM, self.generation))
-        return torch.Generator().manual_seed(int(ss.generate_state(1, dtype=np.uint64)[0] >> np.uint64(1)))
+        """This generation's torch stream."""
+        return torch.Generator().manual_seed(self._torch_seed(self.generation))
+
+    def _long_run(self) -> bool:
+        """Whether this run trains enough steps on the CPU for compiling and speculating to pay off."""
+        generations = -(-self.budget // self.population)
+        steps = (generations - 1) * self.epochs * -(-self.dataset_size // self.batch_size)
+        return resolve_device(self.device_name).type == "cpu" and steps >= AUTO_COMPILE_STEPS
+
+    def _compiles(self) -> bool:
+        return self._long_run() if self.compile == "auto" else bool(self.compile)
+
+    def _speculates(self) -> bool:
+        if self.speculate != "auto":
+            return bool(self.speculate)
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        return cores >= 2 and not self.warm_start and not self.published_reencoding and self._long_run()
 
     @property
     def trainer(self) -> Trainer:
         if self._trainer is None:
             device = resolve_device(self.device_name)
-            compile = self.compile
-            if compile == "auto":
-                generations = -(-self.budget // self.population)
-                steps = (generations - 1) * self.epochs * -(-self.dataset_size // self.batch_size)
-                compile = device.type == "cpu" and steps >= AUTO_COMPILE_STEPS
-            key = (self.schedule_args, self.shape, self.lr, str(device), bool(compile))
+            key = (self.schedule_args, self.shape, self.lr, str(device), self._compiles())
             if key not in _TRAINERS:
-                _TRAINERS[key] = Trainer(make_schedule(*self.schedule_args), shape=self.shape, lr=self.lr, device=device, compile=bool(compile))
+                _TRAINERS[key] = Trainer(make_schedule(*self.schedule_args), shape=self.shape, lr=self.lr, device=device, compile=key[-1])
             self._trainer = _TRAINERS[key]
         return self._trainer
 
+    def _worker_config(self) -> WorkerConfig:
+        return WorkerConfig(self.schedule_args, self.shape, self.lr, self._compiles(), self.threads)
+
+    def _job(self, bodies: list[np.ndarray], generation: int) -> TrainJob:
+        data = encode(np.stack(bodies))[:, None]
+        return TrainJob.make(data, self._torch_seed(generation), epochs=self.epochs, batch_size=self.batch_size,
+                             dataset_size=self.dataset_size, target_loss=self.target_mse)
+
+    def _train_ahead(self, bodies: list[np.ndarray]) -> None:
+        """Start training the next generation's model on these survivors (see :mod:`.speculation`)."""
+        if self._speculates():
+            try:
+                training_worker(self._worker_config()).start(self._job(bodies, self.generation + 1))
+            except WorkerError as exc:
+                self._stop_speculating(exc)
+
+    def _stop_speculating(self, exc: WorkerError) -> None:
+        warnings.warn(f"gda: {exc}; training in this process from now on (same results, no overlap)", RuntimeWarning, stacklevel=3)
+        self.speculate = False
+        discard_worker(self._worker_config())
+
     def _train(self, bodies: list[np.ndarray], generator: torch.Generator) -> TrainResult:
-        trainer = self.trainer
-        trainer.reset(generator)
-        if self.warm_start and self._weights is not None:
-            with torch.no_grad():
-                trainer.flat.copy_(self._weights.to(trainer.device))
-        data = torch.from_numpy(encode(np.stack(bodies)))[:, None]
-        result = trainer.fit(
-            data,
-            epochs=self.epochs,
-            generator=generator,
-            batch_size=self.batch_size,
-            dataset_size=self.dataset_size,
-            target_loss=self.target_mse,
-        )
+        """A fresh model trained on ``bodies``, in the worker process when speculating; ``generator``
+        ends where training leaves this generation's stream, ready for sampling."""
+        job = self._job(bodies, self.generation)
+        self._trained_ahead = False
+        if self._speculates():
+            try:
+                weights, state, result, self._trained_ahead = training_worker(self._worker_config()).train(job)
+            except WorkerError as exc:
+                self._stop_speculating(exc)
+            else:
+                self.trainer.set_weights(weights)
+                generator.set_state(torch.from_numpy(state))
+                return result
+        initial = self._weights if self.warm_start else None
+        result = job.run(self.trainer, generator, initial=initial)
         if self.warm_start:
-            self._weights = trainer.flat.detach().to("cpu", copy=True)
+            self._weights = self.trainer.flat.detach().to("cpu", copy=True)
         return result
 
     def _draw(self, n: int, generator: torch.Generator) -> np.ndarray:

@@ -18,8 +18,9 @@ from __future__ import annotations
 import time
 import warnings
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable
 
+import numpy as np
 import torch
 
 from .backprop import FastUNet
@@ -135,6 +136,12 @@ class Trainer:
         self.sqrt_1m_ab = (1.0 - ab).sqrt().to(self.device, torch.float32)
         self.time_table = self.model.time_features(torch.arange(schedule.steps, device=self.device))
 
+    @torch.no_grad()
+    def set_weights(self, flat: np.ndarray) -> None:
+        """Load weights in the training layout (:attr:`flat`, e.g. trained in another process) into the model."""
+        self.net.params.flat.copy_(torch.from_numpy(flat))
+        self.net.params.store()
+
     def _new_optimizer(self) -> FlatAdamW:
         return FlatAdamW(self.net.params.flat, self.net.params.grad, lr=self.lr, weight_decay=self.weight_decay)
 
@@ -157,12 +164,15 @@ class Trainer:
         batch_size: int = 5,
         dataset_size: int = 64,
         target_loss: float | None = None,
+        stop: Callable[[], bool] | None = None,
     ) -> TrainResult:
         """Train on ``data`` (n, 1, H, W encoded bodies) for ``epochs`` epochs.
 
         With ``target_loss`` training stops after the first epoch whose mean loss is at most
         that value (``epochs`` is then the maximum): the thesis's proposal to control
-        exploration by the MSE reached rather than by a fixed number of epochs.
+        exploration by the MSE reached rather than by a fixed number of epochs.  ``stop`` is
+        asked before each epoch; training ends early once it returns True (a training run
+        that turned out not to be needed).
         """
         start = time.perf_counter()
         dataset = repeat_to(data.to(self.device, torch.float32), dataset_size)
@@ -173,6 +183,8 @@ class Trainer:
         optimizer = self.optimizer
         epoch_loss, done = float("nan"), 0
         for _ in range(epochs):
+            if stop is not None and stop():
+                break
             order = torch.randperm(dataset_size, generator=generator).to(self.device)
             t = torch.randint(1, steps, (dataset_size,), generator=generator).to(self.device)
             noise = torch.randn((dataset_size, *shape), generator=generator).to(self.device)
@@ -187,3 +199,28 @@ class Trainer:
                 break
         self.net.params.store()
         return TrainResult(done, epoch_loss, time.perf_counter() - start)
+
+
+@dataclass(frozen=True)
+class TrainJob:
+    """One generation's training: its data, its torch seed and the rest of ``Trainer.fit``'s arguments."""
+
+    data: bytes  # float32 encoded survivors, C order
+    data_shape: tuple[int, ...]  # (n, 1, H, W)
+    seed: int
+    fit: tuple[tuple[str, Any], ...]
+
+    @classmethod
+    def make(cls, data: np.ndarray, seed: int, **fit: Any) -> TrainJob:
+        data = np.ascontiguousarray(data, dtype=np.float32)
+        return cls(data.tobytes(), data.shape, int(seed), tuple(sorted(fit.items())))
+
+    def run(self, trainer: Trainer, generator: torch.Generator, stop: Callable[[], bool] | None = None,
+            initial: torch.Tensor | None = None) -> TrainResult:
+        """Train ``trainer`` from fresh weights drawn from ``generator`` (or from ``initial``, to warm-start)."""
+        trainer.reset(generator)
+        if initial is not None:
+            with torch.no_grad():
+                trainer.flat.copy_(initial.to(trainer.device))
+        data = torch.from_numpy(np.frombuffer(self.data, dtype=np.float32).reshape(self.data_shape).copy())
+        return trainer.fit(data, generator=generator, stop=stop, **dict(self.fit))

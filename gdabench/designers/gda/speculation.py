@@ -1,0 +1,155 @@
+"""Training the next generation's model on a second core while this generation samples.
+
+Generation g+1's model is trained on the survivors after generation g is evaluated, which
+are generation g's survivors again whenever no new body beats them (about a third of the
+generations of a faithful run on ``simple``).  So as soon as generation g's model is trained,
+a worker process starts training generation g+1's model on the current survivors, with
+generation g+1's own random stream, while the main process samples generation g.  If the
+survivors stay the same, that model is exactly the one the main process would have trained
+(same code, same kernels, same stream; tested bit for bit) and is ready early; if they
+change, the worker drops it at its next epoch and trains on the new survivors instead.
+
+All of a run's training goes through the worker, so the results are the same with or without
+it; only the wall time changes.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+
+from ...errors import GdabenchError
+from .schedule import make_schedule
+from .training import Trainer, TrainJob, TrainResult
+
+#: seconds between checks that the worker is still alive while waiting for it
+POLL_SECONDS = 1.0
+
+
+class WorkerError(GdabenchError):
+    """The training process failed or died; training can go on in the main process."""
+
+
+@dataclass(frozen=True)
+class WorkerConfig:
+    """Everything that makes two trainers compute the same numbers (workers are shared by it)."""
+
+    schedule: tuple[Any, ...]
+    shape: tuple[int, int]
+    lr: float
+    compile: bool
+    threads: int | None
+
+
+def _serve(conn: Any, abandoned: Any, config: WorkerConfig) -> None:
+    """The worker's loop: train each job received and reply ``(job id, outcome)``.
+
+    The outcome is (weights, stream state, result), None for a job abandoned while it ran,
+    or the error message.
+    """
+    if config.threads is not None:
+        torch.set_num_threads(config.threads)
+    trainer = Trainer(make_schedule(*config.schedule), shape=config.shape, lr=config.lr, compile=config.compile)
+    while True:
+        message = conn.recv()
+        if message is None:
+            return
+        job_id, job = message
+        try:
+            generator = torch.Generator().manual_seed(job.seed)
+            result = job.run(trainer, generator, stop=lambda: abandoned.value == job_id)
+            outcome: Any = None if abandoned.value == job_id else (trainer.flat.numpy().copy(), generator.get_state().numpy(), result)
+        except Exception as exc:  # noqa: BLE001 - reported to the main process, which trains itself
+            outcome = f"{type(exc).__name__}: {exc}"
+        conn.send((job_id, outcome))
+
+
+class TrainingWorker:
+    """A process that trains one job at a time; :meth:`start` one ahead, :meth:`train` to get one."""
+
+    def __init__(self, config: WorkerConfig):
+        ctx = mp.get_context("spawn")  # never fork a process that has started torch's threads
+        self._conn, child = ctx.Pipe()
+        self._abandoned = ctx.Value("q", -1, lock=False)
+        self._process = ctx.Process(target=_serve, args=(child, self._abandoned, config), daemon=True, name="gda-training")
+        self._process.start()
+        child.close()
+        self._next_id = 0
+        self._pending: tuple[int, TrainJob] | None = None
+
+    def start(self, job: TrainJob) -> None:
+        """Begin training ``job`` in the background, abandoning a different job under way."""
+        if self._pending is not None and self._pending[1] == job:
+            return
+        if self._pending is not None:
+            self._abandoned.value = self._pending[0]
+        self._send((self._next_id, job))
+        self._pending = (self._next_id, job)
+        self._next_id += 1
+
+    def train(self, job: TrainJob) -> tuple[np.ndarray, np.ndarray, TrainResult, bool]:
+        """``job``'s trained weights (training layout), stream state and result, and whether it
+        had been started ahead."""
+        ahead = self._pending is not None and self._pending[1] == job
+        self.start(job)
+        assert self._pending is not None
+        job_id = self._pending[0]
+        while True:  # replies to abandoned jobs come first and are skipped
+            reply_id, outcome = self._receive()
+            if reply_id == job_id:
+                break
+        self._pending = None
+        if not isinstance(outcome, tuple):
+            raise WorkerError(f"training process failed: {outcome}")
+        weights, state, result = outcome
+        return weights, state, result, ahead
+
+    @property
+    def alive(self) -> bool:
+        return self._process.is_alive()
+
+    def close(self) -> None:
+        try:
+            self._conn.send(None)
+        except OSError:
+            pass
+        self._process.join(timeout=5)
+        if self._process.is_alive():
+            self._process.terminate()
+
+    def _send(self, message: Any) -> None:
+        try:
+            self._conn.send(message)
+        except OSError as exc:
+            raise WorkerError(f"training process unreachable ({exc})") from None
+
+    def _receive(self) -> Any:
+        try:
+            while not self._conn.poll(POLL_SECONDS):
+                if not self._process.is_alive():
+                    raise WorkerError(f"training process exited with code {self._process.exitcode}")
+            return self._conn.recv()
+        except (EOFError, OSError) as exc:
+            raise WorkerError(f"training process lost ({type(exc).__name__})") from None
+
+
+#: workers of this process, one per configuration: designers run one after another and share
+#: them (each job starts from fresh weights), so each compiles its training step once
+_WORKERS: dict[WorkerConfig, TrainingWorker] = {}
+
+
+def training_worker(config: WorkerConfig) -> TrainingWorker:
+    worker = _WORKERS.get(config)
+    if worker is None or not worker.alive:
+        worker = _WORKERS[config] = TrainingWorker(config)
+    return worker
+
+
+def discard_worker(config: WorkerConfig) -> None:
+    worker = _WORKERS.pop(config, None)
+    if worker is not None:
+        worker.close()
