@@ -76,8 +76,12 @@ class TrainingWorker:
         self._conn, child = ctx.Pipe()
         self._abandoned = ctx.Value("q", -1, lock=False)
         self._process = ctx.Process(target=_serve, args=(child, self._abandoned, config), daemon=True, name="gda-training")
-        self._process.start()
-        child.close()
+        try:
+            self._process.start()
+        except Exception as exc:  # noqa: BLE001 - e.g. inside a daemonic process, which may not have children
+            raise WorkerError(f"cannot start the training process ({type(exc).__name__}: {exc})") from None
+        finally:
+            child.close()
         self._next_id = 0
         self._pending: tuple[int, TrainJob] | None = None
 
