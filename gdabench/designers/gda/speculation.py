@@ -2,12 +2,13 @@
 
 Generation g+1's model is trained on the survivors after generation g is evaluated, which
 are generation g's survivors again whenever no new body beats them (in 8 to 23 of 38
-generations, median 15.5, in the reference run's ten faithful seeds on ``simple``).  So as soon as generation g's model is trained,
-a worker process starts training generation g+1's model on the current survivors, with
-generation g+1's own random stream, while the main process samples generation g.  If the
-survivors stay the same, that model is exactly the one the main process would have trained
-(same code, same kernels, same stream; tested bit for bit) and is ready early; if they
-change, the worker drops it at its next epoch and trains on the new survivors instead.
+generations, median 15.5, in the reference run's ten faithful seeds on ``simple``).  So as
+soon as generation g's model is trained, a worker process starts training generation g+1's
+model on the current survivors, with generation g+1's own random stream, while the main
+process samples generation g.  If the survivors stay the same, that model is exactly the one
+the main process would have trained (same code, same kernels, same stream; tested bit for
+bit) and is ready early; if they change, the worker drops it at its next epoch and trains on
+the new survivors instead.
 
 All of a run's training goes through the worker, so the results are the same with or without
 it; only the wall time changes.
@@ -126,6 +127,8 @@ class TrainingWorker:
         return self._process.is_alive()
 
     def close(self) -> None:
+        if self._pending is not None:  # stop a job under way at its next epoch
+            self._abandoned.value = self._pending[0]
         try:
             self._conn.send(None)
         except OSError:
