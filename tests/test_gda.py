@@ -444,37 +444,43 @@ def test_designer_state_drops_the_model_when_pickled():
 
 
 # -- training ahead on a second core -------------------------------------------------------------
-#: rewards per generation: generation 1 and 3 score 0 (the survivors stay: the next model was
-#: trained ahead), generation 2 beats everything (the survivors change: trained anew)
-SCHEDULED_REWARDS = {1: 0.0, 2: 1000.0, 3: 0.0}
+#: rewards per generation: generations 1, 2 and 4 score 0 (the survivors stay: the next model was
+#: trained ahead), generation 3 beats everything (the survivors change: trained anew).  While the
+#: training process trains generation 1's (4's) model, this process trains generation 2's (5's);
+#: generation 3's is the training process's, started while generation 1 sampled
+SCHEDULED_REWARDS = {1: 0.0, 2: 0.0, 3: 1000.0, 4: 0.0}
 
 
-def run_scheduled(designer, generations: int) -> tuple[list[list[str]], list[bool]]:
-    bodies, ahead = [], []
+def run_scheduled(designer, generations: int) -> tuple[list[list[str]], list[bool], list[bool]]:
+    """Proposals, whether each generation's model was trained ahead, and whether this process
+    holds the next generation's model after each ask."""
+    bodies, ahead, holds_next = [], [], []
     for generation in range(generations):
         proposed = designer.ask()
         bodies.append([b.hash for b in proposed])
         ahead.append(bool(designer.proposal_info()[0].get("trained_ahead")))
+        holds_next.append(designer._ahead is not None)
         designer.tell(proposed, [SCHEDULED_REWARDS.get(generation, reward(b)) for b in proposed])
-    return bodies, ahead
+    return bodies, ahead, holds_next
 
 
 def test_training_ahead_gives_exactly_the_same_run():
-    plain, plain_ahead = run_scheduled(gda(seed=3, speculate=False), 5)
-    fast, fast_ahead = run_scheduled(gda(seed=3, speculate=True), 5)
+    plain, plain_ahead, _ = run_scheduled(gda(seed=3, speculate=False), 6)
+    fast, fast_ahead, holds_next = run_scheduled(gda(seed=3, speculate=True), 6)
     assert fast == plain
-    assert plain_ahead == [False] * 5
-    assert fast_ahead == [False, False, True, False, True]  # used whenever the survivors stayed
+    assert plain_ahead == [False] * 6
+    assert fast_ahead == [False, False, True, True, False, True]  # used whenever the survivors stayed
+    assert holds_next == [False, True, False, False, True, False]  # trained here while the other process trained anew
 
 
 def test_a_dead_training_process_costs_the_overlap_not_the_run():
-    plain, _ = run_scheduled(gda(seed=4, speculate=False), 4)
+    plain, _, _ = run_scheduled(gda(seed=4, speculate=False), 5)
     designer = gda(seed=4, speculate=True)
     bodies = []
-    for generation in range(4):
-        if generation == 2:
+    for generation in range(5):
+        if generation == 3:  # while it trains generation 3's model
             speculation._WORKERS[designer._worker_config()]._process.kill()
-        with pytest.warns(RuntimeWarning, match="training in this process") if generation == 2 else contextlib.nullcontext():
+        with pytest.warns(RuntimeWarning, match="training in this process") if generation == 3 else contextlib.nullcontext():
             proposed = designer.ask()
         bodies.append([b.hash for b in proposed])
         designer.tell(proposed, [SCHEDULED_REWARDS.get(generation, reward(b)) for b in proposed])

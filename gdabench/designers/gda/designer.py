@@ -168,6 +168,8 @@ class GenerationalDiffusion(Designer):
         self._weights: torch.Tensor | None = None  # previous model's weights, kept only to warm-start
         self._trainer: Trainer | None = None
         self._trained_ahead = False
+        #: the next generation's model, trained ahead in this process: (job, weights, stream state, result)
+        self._ahead: tuple[TrainJob, np.ndarray, np.ndarray, TrainResult] | None = None
 
     # -- ask/tell ------------------------------------------------------------------------------
     def ask(self) -> list[Body]:
@@ -275,12 +277,20 @@ class GenerationalDiffusion(Designer):
                              dataset_size=self.dataset_size, target_loss=self.target_mse)
 
     def _train_ahead(self, bodies: list[np.ndarray]) -> None:
-        """Start training the next generation's model on these survivors (see :mod:`.speculation`)."""
+        """Start the training process on the next generation's model for these survivors, or on
+        the one after if this process trained that already (see :mod:`.speculation`)."""
         if self._speculates():
-            try:
-                training_worker(self._worker_config()).start(self._job(bodies, self.generation + 1))
-            except WorkerError as exc:
-                self._stop_speculating(exc)
+            ahead = 2 if self._ahead is not None and self._ahead[0] == self._job(bodies, self.generation + 1) else 1
+            if self._asks_again(ahead):
+                try:
+                    training_worker(self._worker_config()).start(self._job(bodies, self.generation + ahead))
+                except WorkerError as exc:
+                    self._stop_speculating(exc)
+
+    def _asks_again(self, generations: int) -> bool:
+        """Whether the run will ask for generation ``self.generation + generations``."""
+        wanted = min(self.population, self.budget - self.evaluations)
+        return self.evaluations + wanted + (generations - 1) * self.population < self.budget
 
     def _stop_speculating(self, exc: WorkerError) -> None:
         warnings.warn(f"gda: {exc}; training in this process from now on (same results, no overlap)", RuntimeWarning, stacklevel=3)
@@ -294,7 +304,7 @@ class GenerationalDiffusion(Designer):
         self._trained_ahead = False
         if self._speculates():
             try:
-                weights, state, result, self._trained_ahead = training_worker(self._worker_config()).train(job)
+                weights, state, result, self._trained_ahead = self._train_speculating(job, bodies)
             except WorkerError as exc:
                 self._stop_speculating(exc)
             else:
@@ -306,6 +316,23 @@ class GenerationalDiffusion(Designer):
         if self.warm_start:
             self._weights = self.trainer.flat.detach().to("cpu", copy=True)
         return result
+
+    def _train_speculating(self, job: TrainJob, bodies: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, TrainResult, bool]:
+        """``job`` trained ahead by this process or the training process, or else by the training
+        process now, while this process, which would only wait, trains the next generation's
+        model on the same survivors ahead."""
+        mine, self._ahead = self._ahead, None
+        if mine is not None and mine[0] == job:
+            return (*mine[1:], True)
+        worker = training_worker(self._worker_config())
+        ahead = worker.has(job)
+        if not ahead and self.survivors and self._asks_again(1):
+            worker.start(job)
+            following = self._job(bodies, self.generation + 1)
+            generator = torch.Generator().manual_seed(following.seed)
+            result = following.run(self.trainer, generator)
+            self._ahead = (following, self.trainer.flat.detach().cpu().numpy().copy(), generator.get_state().numpy(), result)
+        return (*worker.train(job), ahead)
 
     def _draw(self, n: int, generator: torch.Generator) -> np.ndarray:
         """``n`` decoded samples (n, H, W) from the current model."""
@@ -362,6 +389,7 @@ class GenerationalDiffusion(Designer):
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
         state["_trainer"] = None  # rebuilt on demand; every generation starts from a fresh (or saved) model
+        state["_ahead"] = None  # trained again if needed (the same numbers)
         return state
 
 

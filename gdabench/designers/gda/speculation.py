@@ -10,15 +10,22 @@ the main process would have trained (same code, same kernels, same stream; teste
 bit) and is ready early; if they change, the worker drops it at its next epoch and trains on
 the new survivors instead.
 
-All of a run's training goes through the worker, so the results are the same with or without
-it; only the wall time changes.
+When the survivors do change, the worker trains the model needed now from scratch and the
+main process, which would only wait for it, trains the model after it on the same survivors
+(the designer's ``_train_speculating``): a guess that pays off whenever the next generation
+keeps its survivors, and leaves the worker free to go two generations ahead meanwhile.
+
+Every model comes from the same ``TrainJob.run`` with its generation's stream, so the results
+are the same with or without speculation (tested); only the wall time changes.
 """
 
 from __future__ import annotations
 
 import multiprocessing as mp
 import os
+import queue
 import signal
+import threading
 from dataclasses import dataclass
 from typing import Any
 
@@ -60,6 +67,10 @@ def _serve(conn: Any, abandoned: Any, config: WorkerConfig) -> None:
     if config.threads is not None:
         torch.set_num_threads(config.threads)
     trainer = Trainer(make_schedule(*config.schedule), shape=config.shape, lr=config.lr, compile=config.compile)
+    # a reply (~360 kB of weights) fills the pipe until the main process reads it, which may be
+    # only after it has trained a model itself: sending from a thread keeps the worker training
+    replies: queue.SimpleQueue[Any] = queue.SimpleQueue()
+    threading.Thread(target=_send_replies, args=(conn, replies), daemon=True, name="gda-replies").start()
     try:
         while (message := conn.recv()) is not None:
             job_id, job = message
@@ -73,8 +84,16 @@ def _serve(conn: Any, abandoned: Any, config: WorkerConfig) -> None:
                 outcome: Any = None if stop() else (trainer.flat.numpy().copy(), generator.get_state().numpy(), result)
             except Exception as exc:  # noqa: BLE001 - reported to the main process, which trains itself
                 outcome = f"{type(exc).__name__}: {exc}"
-            conn.send((job_id, outcome))
+            replies.put((job_id, outcome))
     except (EOFError, OSError):  # the main process has gone
+        return
+
+
+def _send_replies(conn: Any, replies: queue.SimpleQueue[Any]) -> None:
+    try:
+        while True:
+            conn.send(replies.get())
+    except OSError:  # the main process has gone; the worker's loop ends on its own
         return
 
 
@@ -97,7 +116,7 @@ class TrainingWorker:
 
     def start(self, job: TrainJob) -> None:
         """Begin training ``job`` in the background, abandoning a different job under way."""
-        if self._pending is not None and self._pending[1] == job:
+        if self.has(job):
             return
         if self._pending is not None:
             self._abandoned.value = self._pending[0]
@@ -105,10 +124,12 @@ class TrainingWorker:
         self._pending = (self._next_id, job)
         self._next_id += 1
 
-    def train(self, job: TrainJob) -> tuple[np.ndarray, np.ndarray, TrainResult, bool]:
-        """``job``'s trained weights (training layout), stream state and result, and whether it
-        had been started ahead."""
-        ahead = self._pending is not None and self._pending[1] == job
+    def has(self, job: TrainJob) -> bool:
+        """Whether ``job`` is under way (or done and not yet collected)."""
+        return self._pending is not None and self._pending[1] == job
+
+    def train(self, job: TrainJob) -> tuple[np.ndarray, np.ndarray, TrainResult]:
+        """``job``'s trained weights (training layout), stream state and result."""
         self.start(job)
         assert self._pending is not None
         job_id = self._pending[0]
@@ -120,7 +141,7 @@ class TrainingWorker:
         if not isinstance(outcome, tuple):
             raise WorkerError(f"training process failed: {outcome}")
         weights, state, result = outcome
-        return weights, state, result, ahead
+        return weights, state, result
 
     @property
     def alive(self) -> bool:
