@@ -28,9 +28,9 @@ Options beyond the thesis (each measured against the faithful setting in the REA
 bodies than needed and propose those a reward regression rates best), ``prior`` (train
 generation 0's model on the best bodies of another run instead of sampling at random).
 Speed options that keep the results' distribution: ``compile`` (``torch.compile`` the
-training step), ``threads``, ``device``; ``speculate`` (train the next generation's model on a
-second core while this one samples, see :mod:`.speculation`) leaves the results unchanged
-bit for bit.
+training step), ``threads``, ``device``; ``speculate`` (train models ahead on both cores: on a
+second one while this one samples, and here while the second trains; see :mod:`.speculation`)
+leaves the results unchanged bit for bit.
 """
 
 from __future__ import annotations
@@ -328,10 +328,14 @@ class GenerationalDiffusion(Designer):
         ahead = worker.has(job)
         if not ahead and self.survivors and self._asks_again(1):
             worker.start(job)
-            following = self._job(bodies, self.generation + 1)
-            generator = torch.Generator().manual_seed(following.seed)
-            result = following.run(self.trainer, generator)
-            self._ahead = (following, self.trainer.flat.detach().cpu().numpy().copy(), generator.get_state().numpy(), result)
+            if self.trainer.warm:
+                following = self._job(bodies, self.generation + 1)
+                generator = torch.Generator().manual_seed(following.seed)
+                result = following.run(self.trainer, generator)
+                self._ahead = (following, self.trainer.flat.detach().cpu().numpy().copy(), generator.get_state().numpy(), result)
+            else:  # the first time: compile after the worker, from its cache, while it trains
+                worker.wait_warm()
+                job.warm_up(self.trainer)
         return (*worker.train(job), ahead)
 
     def _draw(self, n: int, generator: torch.Generator) -> np.ndarray:

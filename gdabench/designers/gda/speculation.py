@@ -26,6 +26,7 @@ import os
 import queue
 import signal
 import threading
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -55,7 +56,7 @@ class WorkerConfig:
     threads: int | None
 
 
-def _serve(conn: Any, abandoned: Any, config: WorkerConfig) -> None:
+def _serve(conn: Any, abandoned: Any, warm: Any, config: WorkerConfig) -> None:
     """The worker's loop: train each job received and reply ``(job id, outcome)``.
 
     The outcome is (weights, stream state, result), None for a job abandoned while it ran,
@@ -75,7 +76,8 @@ def _serve(conn: Any, abandoned: Any, config: WorkerConfig) -> None:
         while (message := conn.recv()) is not None:
             job_id, job = message
 
-            def stop() -> bool:
+            def stop() -> bool:  # asked before each epoch
+                warm.value = trainer.warm  # the compiled step is in inductor's on-disk cache now
                 return abandoned.value == job_id or os.getppid() != parent
 
             try:
@@ -104,7 +106,8 @@ class TrainingWorker:
         ctx = mp.get_context("spawn")  # never fork a process that has started torch's threads
         self._conn, child = ctx.Pipe()
         self._abandoned = ctx.Value("q", -1, lock=False)
-        self._process = ctx.Process(target=_serve, args=(child, self._abandoned, config), daemon=True, name="gda-training")
+        self._warm = ctx.Value("b", False, lock=False)
+        self._process = ctx.Process(target=_serve, args=(child, self._abandoned, self._warm, config), daemon=True, name="gda-training")
         try:
             self._process.start()
         except Exception as exc:  # noqa: BLE001 - e.g. inside a daemonic process, which may not have children
@@ -142,6 +145,14 @@ class TrainingWorker:
             raise WorkerError(f"training process failed: {outcome}")
         weights, state, result = outcome
         return weights, state, result
+
+    def wait_warm(self) -> None:
+        """Return once the worker has compiled its training step (so a compilation here finds
+        the on-disk cache warm instead of running a second C++ compiler beside the worker's)."""
+        while not self._warm.value:
+            if not self._process.is_alive():
+                raise WorkerError(f"training process exited with code {self._process.exitcode}")
+            time.sleep(0.05)
 
     @property
     def alive(self) -> bool:

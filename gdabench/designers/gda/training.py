@@ -97,6 +97,11 @@ class Trainer:
         self.optimizer = self._new_optimizer()
 
     @property
+    def warm(self) -> bool:
+        """Whether the training step is compiled (or runs eagerly): nothing left to compile."""
+        return not self.compile or bool(self._compiled)
+
+    @property
     def flat(self) -> torch.Tensor:
         """All weights in one vector (the training layout; see :mod:`.backprop`)."""
         return self.net.params.flat
@@ -224,3 +229,9 @@ class TrainJob:
                 trainer.flat.copy_(initial.to(trainer.device))
         data = torch.from_numpy(np.frombuffer(self.data, dtype=np.float32).reshape(self.data_shape).copy())
         return trainer.fit(data, generator=generator, stop=stop, **dict(self.fit))
+
+    def warm_up(self, trainer: Trainer) -> None:
+        """Compile ``trainer``'s step for this job's batches now: one epoch on blank bodies (every
+        run starts from fresh weights anyway)."""
+        fit = {**dict(self.fit), "epochs": 1, "target_loss": None}
+        trainer.fit(torch.zeros(self.data_shape), generator=torch.Generator().manual_seed(0), **fit)
