@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import pickle
+import threading
 
 import numpy as np
 import pytest
@@ -24,7 +25,7 @@ from gdabench.designers.gda.sampling import ancestral_sample, ddim_sample
 from gdabench.designers.gda.schedule import make_schedule
 from gdabench.designers.gda import speculation
 from gdabench.designers.gda.surrogate import ridge_predictor
-from gdabench.designers.gda.training import FlatAdamW, Trainer, repeat_to
+from gdabench.designers.gda.training import FlatAdamW, Trainer, TrainJob, repeat_to
 
 from gda_reference import RefUNet
 
@@ -473,13 +474,31 @@ def test_training_ahead_gives_exactly_the_same_run():
     assert holds_next == [False, True, False, False, True, False]  # trained here while the other process trained anew
 
 
+def test_a_failed_job_is_reported_not_waited_for():
+    config = speculation.WorkerConfig(("linear", 500, 1e-4, 0.02), (5, 5), 1e-3, True, 1)
+    broken = TrainJob(b"", (1, 1, 5, 5), 0, ())  # no data: fails before compiling anything
+    worker = speculation.TrainingWorker(config)
+    try:
+        worker.start(broken)
+        waiting = threading.Thread(target=worker.wait_warm, daemon=True)
+        waiting.start()
+        waiting.join(timeout=60)
+        assert not waiting.is_alive()  # returned on the error reply instead of waiting for a compilation
+        with pytest.raises(speculation.WorkerError, match="training process failed"):
+            worker.train(broken)
+    finally:
+        worker.close()
+
+
 def test_a_dead_training_process_costs_the_overlap_not_the_run():
     plain, _, _ = run_scheduled(gda(seed=4, speculate=False), 5)
     designer = gda(seed=4, speculate=True)
     bodies = []
     for generation in range(5):
-        if generation == 3:  # while it trains generation 3's model
-            speculation._WORKERS[designer._worker_config()]._process.kill()
+        if generation == 3:  # while it trains generation 3's model, or just after
+            process = speculation._WORKERS[designer._worker_config()]._process
+            process.kill()
+            process.join()  # gone, not merely signalled: the run must notice it in this generation
         with pytest.warns(RuntimeWarning, match="training in this process") if generation == 3 else contextlib.nullcontext():
             proposed = designer.ask()
         bodies.append([b.hash for b in proposed])

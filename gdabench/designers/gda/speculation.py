@@ -148,15 +148,20 @@ class TrainingWorker:
 
     def wait_warm(self) -> None:
         """Return once the worker has compiled its training step (so a compilation here finds
-        the on-disk cache warm instead of running a second C++ compiler beside the worker's)."""
-        while not self._warm.value:
+        the on-disk cache warm instead of running a second C++ compiler beside the worker's),
+        or has replied (e.g. with an error) without getting that far."""
+        while not self._warm.value and not self._conn.poll():
             if not self._process.is_alive():
-                raise WorkerError(f"training process exited with code {self._process.exitcode}")
+                raise WorkerError(f"training process exited with code {self.exitcode}")
             time.sleep(0.05)
 
     @property
     def alive(self) -> bool:
         return self._process.is_alive()
+
+    @property
+    def exitcode(self) -> int | None:
+        return self._process.exitcode
 
     def close(self) -> None:
         if self._pending is not None:  # stop a job under way at its next epoch
@@ -179,7 +184,7 @@ class TrainingWorker:
         try:
             while not self._conn.poll(POLL_SECONDS):
                 if not self._process.is_alive():
-                    raise WorkerError(f"training process exited with code {self._process.exitcode}")
+                    raise WorkerError(f"training process exited with code {self.exitcode}")
             return self._conn.recv()
         except (EOFError, OSError) as exc:
             raise WorkerError(f"training process lost ({type(exc).__name__})") from None
@@ -191,9 +196,13 @@ _WORKERS: dict[WorkerConfig, TrainingWorker] = {}
 
 
 def training_worker(config: WorkerConfig) -> TrainingWorker:
+    """This configuration's worker, started if there is none; one that died since is an error
+    (the designer then trains in this process and discards it)."""
     worker = _WORKERS.get(config)
-    if worker is None or not worker.alive:
+    if worker is None:
         worker = _WORKERS[config] = TrainingWorker(config)
+    elif not worker.alive:
+        raise WorkerError(f"training process exited with code {worker.exitcode}")
     return worker
 
 
