@@ -187,7 +187,7 @@ class GenerationalDiffusion(Designer):
         else:
             generator = self._torch_generator()
             trained = self._train(training_set, generator)
-            if self.survivors and self.evaluations + wanted < self.budget:  # not after a prior: survivors unknown yet
+            if self.survivors:  # not after a prior: survivors unknown yet
                 self._train_ahead(training_set)
             start = time.perf_counter()
             if self.pool is None:
@@ -280,10 +280,13 @@ class GenerationalDiffusion(Designer):
         """Start the training process on the next generation's model for these survivors, or on
         the one after if this process trained that already (see :mod:`.speculation`)."""
         if self._speculates():
-            ahead = 2 if self._ahead is not None and self._ahead[0] == self._job(bodies, self.generation + 1) else 1
+            job = self._job(bodies, self.generation + 1)
+            ahead = 1
+            if self._ahead is not None and self._ahead[0] == job:
+                job, ahead = self._job(bodies, self.generation + 2), 2
             if self._asks_again(ahead):
                 try:
-                    training_worker(self._worker_config()).start(self._job(bodies, self.generation + ahead))
+                    training_worker(self._worker_config()).start(job)
                 except WorkerError as exc:
                     self._stop_speculating(exc)
 
@@ -330,9 +333,7 @@ class GenerationalDiffusion(Designer):
             worker.start(job)
             if self.trainer.warm:
                 following = self._job(bodies, self.generation + 1)
-                generator = torch.Generator().manual_seed(following.seed)
-                result = following.run(self.trainer, generator)
-                self._ahead = (following, self.trainer.flat.detach().cpu().numpy().copy(), generator.get_state().numpy(), result)
+                self._ahead = (following, *following.train(self.trainer))
             else:  # the first time: compile after the worker, from its cache, while it trains
                 worker.wait_warm()
                 job.warm_up(self.trainer)

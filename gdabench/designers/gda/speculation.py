@@ -81,9 +81,8 @@ def _serve(conn: Any, abandoned: Any, warm: Any, config: WorkerConfig) -> None:
                 return abandoned.value == job_id or os.getppid() != parent
 
             try:
-                generator = torch.Generator().manual_seed(job.seed)
-                result = job.run(trainer, generator, stop=stop)
-                outcome: Any = None if stop() else (trainer.flat.numpy().copy(), generator.get_state().numpy(), result)
+                trained = job.train(trainer, stop=stop)
+                outcome: Any = None if stop() else trained
             except Exception as exc:  # noqa: BLE001 - reported to the main process, which trains itself
                 outcome = f"{type(exc).__name__}: {exc}"
             replies.put((job_id, outcome))

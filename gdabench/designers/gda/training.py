@@ -230,6 +230,13 @@ class TrainJob:
         data = torch.from_numpy(np.frombuffer(self.data, dtype=np.float32).reshape(self.data_shape).copy())
         return trainer.fit(data, generator=generator, stop=stop, **dict(self.fit))
 
+    def train(self, trainer: Trainer, stop: Callable[[], bool] | None = None) -> tuple[np.ndarray, np.ndarray, TrainResult]:
+        """A fresh model trained from this job's own seed: its weights (training layout), the
+        stream's state after training (where sampling goes on) and the result."""
+        generator = torch.Generator().manual_seed(self.seed)
+        result = self.run(trainer, generator, stop=stop)
+        return trainer.flat.detach().cpu().numpy().copy(), generator.get_state().numpy(), result
+
     def warm_up(self, trainer: Trainer) -> None:
         """Compile ``trainer``'s step for this job's batches now: one epoch on blank bodies (every
         run starts from fresh weights anyway)."""
