@@ -345,7 +345,7 @@ class GenerationalDiffusion(Designer):
         if self.sampler == "ddim":
             x = ddim_sample(trainer.model, trainer.schedule, n, self.shape, generator, trainer.device, self.sample_steps, temperature=self.temperature)
         else:
-            x = ancestral_sample(trainer.model, trainer.schedule, n, self.shape, generator, trainer.device, self.temperature)
+            x = ancestral_sample(trainer.model, trainer.schedule, n, self.shape, generator, trainer.device, self.temperature, trainer.sample_forward())
         return decode(x[:, 0].cpu().numpy())
 
     def _sample_new(self, wanted: int, generator: torch.Generator, remember: bool = True) -> tuple[list[Body], int]:

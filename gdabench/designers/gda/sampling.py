@@ -14,6 +14,7 @@ the given generator, the per-step constants are Python floats, and the update ru
 from __future__ import annotations
 
 import math
+from typing import Callable
 
 import torch
 
@@ -32,12 +33,13 @@ def ancestral_sample(
     generator: torch.Generator,
     device: torch.device,
     temperature: float = 1.0,
+    forward: Callable[[torch.Tensor, torch.Tensor], torch.Tensor] | None = None,
 ) -> torch.Tensor:
     """``n`` samples (n, 1, H, W) by ancestral sampling over t = T-1 .. 1 (T-1 network calls).
 
     ``temperature`` scales the noise added at each step (1 = the thesis sampler); below 1 the
     chain drifts towards the modes of what the model learnt, e.g. the voxel-wise consensus
-    of the survivors.
+    of the survivors.  ``forward`` replaces ``model.forward_features`` (e.g. compiled).
     """
     model.eval()
     T = schedule.steps
@@ -45,8 +47,9 @@ def ancestral_sample(
     x = torch.randn((n, 1, *shape), generator=generator).to(device)
     z = torch.randn((max(T - 2, 0), n, 1, *shape), generator=generator).to(device)  # for t = T-1 .. 2
     feats = model.time_features(torch.arange(T, device=device))
+    forward = forward or model.forward_features
     for t in range(T - 1, 0, -1):
-        eps = model.forward_features(x, feats[t : t + 1])
+        eps = forward(x, feats[t : t + 1])
         x.sub_(eps, alpha=(1.0 - alphas[t]) / math.sqrt(1.0 - alpha_bars[t])).mul_(1.0 / math.sqrt(alphas[t]))
         if t > 1:
             x.add_(z[T - 1 - t], alpha=temperature * math.sqrt(betas[t]))

@@ -88,6 +88,7 @@ class Trainer:
         self.device = torch.device(device)
         self.compile = compile
         self._compiled: dict[int, Callable[..., torch.Tensor]] = {}
+        self._sample_forward: Callable[[torch.Tensor, torch.Tensor], torch.Tensor] | None = None
         with torch.random.fork_rng(devices=[]):  # construction draws weights that reset() replaces
             self.model = UNet().to(self.device)
             self._cpu_model = self.model if self.device.type == "cpu" else UNet()
@@ -106,31 +107,48 @@ class Trainer:
         """All weights in one vector (the training layout; see :mod:`.backprop`)."""
         return self.net.params.flat
 
-    def _step(self, size: int, full: int) -> Callable[..., torch.Tensor]:
-        """The training step for a batch of ``size``: compiled for full batches when asked for."""
-        if not self.compile or size != full:
+    def _step(self, size: int) -> Callable[..., torch.Tensor]:
+        """The training step for a batch of ``size`` (each size compiled once, when asked for)."""
+        if not self.compile:
             return self.net.step
         step = self._compiled.get(size)
         if step is None:
-            step = self._compiled[size] = self._compile(size)
+            self.net.prepare(size)
+            # the C++ wrapper runs the graph's ~500 kernel calls and allocations without Python
+            # in between: 12% faster steps than inductor's Python wrapper, no longer to compile
+            compiled = torch.compile(self.net.step, dynamic=False, options={"cpp_wrapper": True})
+            step = self._compiled[size] = self._first_call(compiled, self.net.step, lambda: self._compiled.__setitem__(size, compiled))
         return step
 
-    def _compile(self, size: int) -> Callable[..., torch.Tensor]:
-        """``torch.compile`` the step for one batch size; on any failure warn once and stay eager."""
-        self.net.prepare(size)
-        # the C++ wrapper runs the graph's ~500 kernel calls and allocations without Python in
-        # between: 12% faster steps, the same kernels (bit-identical), no longer to compile
-        compiled = torch.compile(self.net.step, dynamic=False, options={"cpp_wrapper": True})
+    def sample_forward(self) -> Callable[[torch.Tensor, torch.Tensor], torch.Tensor]:
+        """The network's forward pass for sampling: compiled, for every pass size at once, when
+        training is compiled (2.8 -> 2.1 ms per call of 50 bodies on one core)."""
+        if not self.compile:
+            return self.model.forward_features
+        if self._sample_forward is None:
+            compiled = torch.compile(self.model.forward_features, options={"cpp_wrapper": True})
+
+            def forward(x: torch.Tensor, t_feat: torch.Tensor) -> torch.Tensor:
+                torch._dynamo.mark_dynamic(x, 0)  # one graph whatever the pass size
+                return compiled(x, t_feat)
+
+            self._sample_forward = self._first_call(forward, self.model.forward_features, lambda: setattr(self, "_sample_forward", forward))
+        return self._sample_forward
+
+    def _first_call(self, compiled: Callable[..., torch.Tensor], eager: Callable[..., torch.Tensor],
+                    done: Callable[[], None]) -> Callable[..., torch.Tensor]:
+        """``compiled``, whose first call compiles: on success ``done()`` installs it, on any
+        failure (no compiler, unsupported platform, ...) warn once and run eagerly from then on."""
 
         def first_call(*args: torch.Tensor) -> torch.Tensor:
             try:
-                loss = compiled(*args)
-            except Exception as exc:  # noqa: BLE001 - no compiler, unsupported platform, ...
-                warnings.warn(f"gda: torch.compile failed ({type(exc).__name__}: {exc}); training without it", RuntimeWarning, stacklevel=2)
+                out = compiled(*args)
+            except Exception as exc:  # noqa: BLE001
+                warnings.warn(f"gda: torch.compile failed ({type(exc).__name__}: {exc}); running without it", RuntimeWarning, stacklevel=2)
                 self.compile = False
-                return self.net.step(*args)
-            self._compiled[size] = compiled
-            return loss
+                return eager(*args)
+            done()
+            return out
 
         return first_call
 
@@ -196,7 +214,7 @@ class Trainer:
             xt = self.sqrt_ab[t].view(-1, 1, 1, 1) * dataset[order] + self.sqrt_1m_ab[t].view(-1, 1, 1, 1) * noise
             feats = self.time_table[t]
             for i, (a, b) in enumerate(bounds):
-                losses[i] = self._step(b - a, batch_size)(xt[a:b], feats[a:b], noise[a:b])
+                losses[i] = self._step(b - a)(xt[a:b], feats[a:b], noise[a:b])
                 optimizer.step()
             done += 1
             epoch_loss = float(losses.mean())
