@@ -346,14 +346,15 @@ def test_sampling_shortfall_falls_back_to_random_bodies_instead_of_crashing():
     assert len({b.hash for b in everything}) == len(everything)
 
 
-@pytest.mark.parametrize("params", [{}, {"warm_start": True}, {"speculate": True}])
+@pytest.mark.parametrize("params", [{}, {"warm_start": True}, {"speculate": True}, {"compile": True}])
 def test_pickled_designer_resumes_exactly(params):
     designer = gda(seed=2, **params)
     run(designer, 2)
     blob = pickle.dumps(designer)
     assert len(blob) < 2_000_000
-    resumed = pickle.loads(blob)
+    resumed = pickle.loads(blob)  # without its model: compiles anew, at its own first sizes
     assert [[b.hash for b in g] for g in run(designer, 2)] == [[b.hash for b in g] for g in run(resumed, 2)]
+    assert resumed._trainer.compile == params.get("compile", False)  # compiled, not fallen back to eager
 
 
 def test_variants_and_options_run():

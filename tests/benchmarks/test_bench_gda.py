@@ -22,7 +22,6 @@ from torch.utils.data import DataLoader
 
 from gdabench import make_designer, random_body
 from gdabench.designers.gda.encoding import encode
-from gdabench.designers.gda.model import UNet
 from gdabench.designers.gda.runtime import torch_threads
 from gdabench.designers.gda.sampling import ancestral_sample
 from gdabench.designers.gda.schedule import make_schedule
@@ -44,7 +43,7 @@ def one_thread():
 def needs_enabled(benchmark):
     """Compiling costs a minute or two the first time: only when benchmarks really run."""
     if benchmark.disabled:
-        pytest.skip("compiles the training step; run with --benchmark-enable")
+        pytest.skip("compiles; run with --benchmark-enable")
 
 
 @pytest.mark.parametrize("compiled", [False, True], ids=["eager", "compiled"])
@@ -82,11 +81,19 @@ def test_train_epoch_author_style(benchmark):
     benchmark(epoch)
 
 
-def test_sampling_pass(benchmark):
+@pytest.mark.parametrize("compiled", [False, True], ids=["eager", "compiled"])
+def test_sampling_pass(benchmark, compiled):
     """One ancestral pass of 50 samples over 499 steps, as the thesis code draws them."""
-    model = UNet()
+    if compiled:
+        needs_enabled(benchmark)
+    trainer = Trainer(SCHEDULE, compile=compiled)
+    forward = trainer.sample_forward()
     generator = torch.Generator().manual_seed(0)
-    x = benchmark.pedantic(lambda: ancestral_sample(model, SCHEDULE, 50, (5, 5), generator, torch.device("cpu")), rounds=5, warmup_rounds=1)
+
+    def sample() -> torch.Tensor:
+        return ancestral_sample(trainer.model, SCHEDULE, 50, (5, 5), generator, torch.device("cpu"), forward=forward)
+
+    x = benchmark.pedantic(sample, rounds=5, warmup_rounds=1)  # the warm-up compiles, if asked
     assert x.shape == (50, 1, 5, 5)
 
 
