@@ -28,7 +28,7 @@ Options beyond the thesis (each measured against the faithful setting in the REA
 bodies than needed and propose those a reward regression rates best), ``prior`` (train
 generation 0's model on the best bodies of another run instead of sampling at random).
 Speed options that keep the results' distribution: ``compile`` (``torch.compile`` the
-training step), ``threads``, ``device``; ``speculate`` (train models ahead on both cores: on a
+training step and the sampling network: same distribution, other rounding), ``threads``, ``device``; ``speculate`` (train models ahead on both cores: on a
 second one while this one samples, and here while the second trains; see :mod:`.speculation`)
 leaves the results unchanged bit for bit.
 """
@@ -59,7 +59,7 @@ from .training import Trainer, TrainJob, TrainResult
 
 TORCH_STREAM = 1  # spawn-key branch of the designer's seed used for torch (weights, noise)
 MAX_PASS = 256  # most samples denoised in one pass when the pass size adapts
-#: compile='auto' compiles the training step, and speculate='auto' trains ahead on a second
+#: compile='auto' compiles training and sampling, and speculate='auto' trains ahead on a second
 #: core, when a run trains at least this many steps: about where the ~1 ms saved per step
 #: repays a first-time compilation (under a minute) on a 2-core CPU
 AUTO_COMPILE_STEPS = 50_000
@@ -342,10 +342,12 @@ class GenerationalDiffusion(Designer):
     def _draw(self, n: int, generator: torch.Generator) -> np.ndarray:
         """``n`` decoded samples (n, H, W) from the current model."""
         trainer = self.trainer
+        forward = trainer.sample_forward()
         if self.sampler == "ddim":
-            x = ddim_sample(trainer.model, trainer.schedule, n, self.shape, generator, trainer.device, self.sample_steps, temperature=self.temperature)
+            x = ddim_sample(trainer.model, trainer.schedule, n, self.shape, generator, trainer.device, self.sample_steps,
+                            temperature=self.temperature, forward=forward)
         else:
-            x = ancestral_sample(trainer.model, trainer.schedule, n, self.shape, generator, trainer.device, self.temperature, trainer.sample_forward())
+            x = ancestral_sample(trainer.model, trainer.schedule, n, self.shape, generator, trainer.device, self.temperature, forward)
         return decode(x[:, 0].cpu().numpy())
 
     def _sample_new(self, wanted: int, generator: torch.Generator, remember: bool = True) -> tuple[list[Body], int]:

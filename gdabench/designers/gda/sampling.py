@@ -75,6 +75,7 @@ def ddim_sample(
     steps: int = 50,
     eta: float = 1.0,
     temperature: float = 1.0,
+    forward: Callable[[torch.Tensor, torch.Tensor], torch.Tensor] | None = None,
 ) -> torch.Tensor:
     """``n`` samples by DDIM over ``steps`` timesteps, ending at index 0 like the thesis sampler.
 
@@ -85,7 +86,7 @@ def ddim_sample(
     sigma^2 = beta); ``eta = 0`` is deterministic, and with models trained as briefly as GDA's
     it collapses most draws onto a few degenerate bodies (measured: 5-10% of draws near the
     training body against about 50% for eta = 1), so 1 is the default.  ``temperature``
-    scales sigma as in :func:`ancestral_sample`.
+    scales sigma and ``forward`` replaces the network as in :func:`ancestral_sample`.
     """
     model.eval()
     alpha_bars = schedule.alpha_bars.tolist()
@@ -93,10 +94,11 @@ def ddim_sample(
     x = torch.randn((n, 1, *shape), generator=generator).to(device)
     z = torch.randn((len(ts), n, 1, *shape), generator=generator).to(device)
     feats = model.time_features(torch.tensor(ts, device=device))
+    forward = forward or model.forward_features
     for i, t in enumerate(ts):
         ab_t = alpha_bars[t]
         ab_s = alpha_bars[ts[i + 1]] if i + 1 < len(ts) else alpha_bars[0]
-        eps = model.forward_features(x, feats[i : i + 1])
+        eps = forward(x, feats[i : i + 1])
         x0 = (x - math.sqrt(1.0 - ab_t) * eps) / math.sqrt(ab_t)
         last = i + 1 == len(ts)
         sigma = 0.0 if last else eta * math.sqrt(max((1.0 - ab_s) / (1.0 - ab_t) * (1.0 - ab_t / ab_s), 0.0))
