@@ -28,9 +28,10 @@ Options beyond the thesis (each measured against the faithful setting in the REA
 bodies than needed and propose those a reward regression rates best), ``prior`` (train
 generation 0's model on the best bodies of another run instead of sampling at random).
 Speed options that keep the results' distribution: ``compile`` (``torch.compile`` the
-training step and the sampling network: same distribution, other rounding), ``threads``, ``device``; ``speculate`` (train models ahead on both cores: on a
-second one while this one samples, and here while the second trains; see :mod:`.speculation`)
-leaves the results unchanged bit for bit.
+training step and the sampling network: same distribution, other rounding), ``threads``,
+``device``; ``speculate`` (train models ahead on both cores: on a second one while this one
+samples, and here while the second trains; see :mod:`.speculation`) leaves the results
+unchanged bit for bit.
 """
 
 from __future__ import annotations
