@@ -42,6 +42,10 @@ class Environment(abc.ABC):
     requires_controller: ClassVar[bool] = False
     #: the same body, seed and controller always give the same reward (enables caching)
     deterministic: ClassVar[bool] = True
+    #: which version of the dynamics or scoring this environment implements (e.g. the Gymnasium id
+    #: ``gdabench/Walker-v1``); recorded in every result row and in ``run.json`` so that runs made
+    #: before a change of dynamics stay interpretable.  None: the environment declares no version.
+    version: str | None = None
 
     def __init__(self, *, shape: tuple[int, int] = DEFAULT_SHAPE):
         self.shape = tuple(shape)

@@ -50,6 +50,7 @@ COLUMNS: dict[str, str] = {
     "designer": "designer label as given (name, or name[params])",
     "designer_name": "registered designer name",
     "env": "environment name",
+    "env_version": "version of the environment's dynamics or scoring, e.g. gdabench/Walker-v1 ('' when it declares none)",
     "controller": "controller name ('' when the environment needs none)",
     "designer_params": "designer parameters as JSON",
     "env_params": "environment parameters as JSON",

@@ -57,6 +57,10 @@ class Flaky(Environment):
         return float(body.voxels.sum())
 
 
+class Versioned(Flaky):
+    version = "flaky-v3"
+
+
 class FakePlugin:
     @hookimpl
     def gdabench_designers(self):
@@ -67,7 +71,7 @@ class FakePlugin:
 
     @hookimpl
     def gdabench_environments(self):
-        return [EnvironmentSpec("flaky", Flaky, "test env")]
+        return [EnvironmentSpec("flaky", Flaky, "test env"), EnvironmentSpec("versioned", Versioned, "test env with a version")]
 
 
 @pytest.fixture
@@ -213,6 +217,13 @@ def test_results_schema_and_run_json(tmp_path):
     assert Experiment.from_json(meta["config"]) == exp
     summary = pd.read_csv(run.path / "summary.csv")
     assert summary.loc[0, "best_median"] == df["reward"].max()
+
+
+def test_the_environment_version_is_recorded_in_rows_and_run_json(tmp_path, reg):
+    run = compare(scripted([[A, B]], env="versioned", budget=2, population=2), tmp_path / "v", reg=reg)
+    assert (run.load_evaluations()["env_version"] == "flaky-v3").all() and run.meta["env_version"] == "flaky-v3"
+    plain = compare(scripted([[A, B]], budget=2, population=2), tmp_path / "plain", reg=reg)
+    assert (plain.load_evaluations()["env_version"] == "").all() and plain.meta["env_version"] is None
 
 
 def test_stuck_designer_is_stopped(tmp_path, reg):
