@@ -34,8 +34,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))  # cpu_burn, for the dr
 from gdabench import EnvironmentSpec, hookimpl  # noqa: E402
 from gdabench.body import random_body  # noqa: E402
 from gdabench.config import PluginChoice, parse_params  # noqa: E402
-from gdabench.evaluation import OK, EvalTask  # noqa: E402
-from gdabench.executors import make_executor  # noqa: E402
+from gdabench.execution import OK, EvalTask, Executor, SerialExecutor  # noqa: E402
+from gdabench.execution.pool import ProcessExecutor  # noqa: E402
 from gdabench.plugins import Registry  # noqa: E402
 from gdabench.specs import Factory  # noqa: E402
 
@@ -66,11 +66,22 @@ def make_tasks(env: Factory, ctrl: Factory | None, n: int, shape, seed: int) -> 
     return tasks
 
 
+def make_executor(kind: str, workers: int, prebuilt: dict | None, warm: list[Factory]) -> Executor:
+    """The evaluation executor ``kind`` (serial, process or ray) with ``workers`` workers."""
+    if kind == "serial":
+        return SerialExecutor(prebuilt)
+    if kind == "process":
+        return ProcessExecutor(workers, warm=warm)
+    from gdabench.execution.ray import RayExecutor
+
+    return RayExecutor(workers, warm=warm)
+
+
 def rate(kind: str, workers: int, tasks: list[EvalTask], population: int, repeats: int, warm: list[Factory]) -> tuple[float, float, float]:
     """Evaluations per second, busy share and CPU share (medians over ``repeats`` passes through ``tasks``)."""
     prebuilt = {r.key(): r.build() for r in warm} if kind == "serial" else None
     rates, busy, cpu = [], [], []
-    with make_executor(kind, workers, prebuilt, warm=warm) as executor:
+    with make_executor(kind, workers, prebuilt, warm) as executor:
         executor.map(tasks[:workers])  # start the workers
         for _ in range(repeats):
             start = time.perf_counter()

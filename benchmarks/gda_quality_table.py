@@ -17,7 +17,7 @@ import argparse
 import pandas as pd
 
 from gdabench.results import RunDirectory
-from gdabench.summary import summarize
+from gdabench.report.summary import summarize
 
 
 def main() -> None:

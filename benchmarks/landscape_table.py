@@ -25,7 +25,8 @@ import pandas as pd
 from gdabench import Experiment, PluginChoice, RunDirectory, compare
 from gdabench.config import parse_seeds, split_top_level
 from gdabench.errors import ConfigError, GdabenchError
-from gdabench.summary import summarize
+from gdabench.plan import Plan
+from gdabench.report.summary import summarize
 
 ENVS = "simple,two-peaks,target,nk[k=0],nk[k=4]"
 
@@ -39,7 +40,7 @@ def run_dir(root: Path, env: str, designer: str) -> Path:
 
 
 def experiment_for(env: PluginChoice, designer: PluginChoice, seeds: list[int], budget: int, population: int) -> Experiment:
-    return Experiment(designers=(designer,), env=env, population=population, budget=budget, seeds=tuple(seeds))
+    return Experiment(designers=(designer,), envs=env, population=population, budget=budget, seeds=tuple(seeds))
 
 
 def ensure_run(root: Path, env: PluginChoice, designer: PluginChoice, seeds: list[int], budget: int, population: int) -> None:
@@ -117,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
         if not args.no_run:
             for env in envs:  # check every name and parameter before spending time on runs
                 for designer in designers:
-                    experiment_for(env, designer, seeds, args.budget, args.population).validate()
+                    Plan.resolve(experiment_for(env, designer, seeds, args.budget, args.population))
             for env in envs:
                 for designer in designers:
                     ensure_run(args.root, env, designer, seeds, args.budget, args.population)

@@ -31,7 +31,7 @@ def main() -> None:
         if run_dir is None:
             experiment = Experiment(
                 designers=(PluginChoice("ga", {}, "ga"), PluginChoice("random", {}, "random")),
-                env=PluginChoice("simple", {}, "simple"),
+                envs=PluginChoice("simple", {}, "simple"),
                 budget=1000,
                 seeds=tuple(range(10)),
             )

@@ -1,39 +1,51 @@
 """The ``gdabench`` command line.
 
-Errors caused by input are printed as one line (``error: ...``) with a non-zero exit code:
-2 for a bad command (unknown name, bad value), 1 when a run failed while running (its
-directory is kept and can be resumed), 130 when interrupted.  Set ``GDABENCH_DEBUG=1`` to see
-tracebacks.
+Errors caused by input are printed as one line (``error: ...``) with exit code 2, before any
+run directory is made; a run that failed while running exits 1 (its directory is kept and can
+be resumed); Ctrl-C exits 130 and SIGTERM 143, the run marked ``interrupted``.  Set
+``GDABENCH_DEBUG=1`` to see tracebacks.
 """
 
 from __future__ import annotations
 
+import inspect
 import os
+import signal
 import sys
+from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Annotated, Any, Optional
+from typing import Annotated, Any, Callable, Optional, get_type_hints
 
 import typer
 from rich.console import Console
 from rich.markup import escape
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskID, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
 from .body import parse_shape
-from .config import Experiment, PluginChoice, parse_params, parse_seeds, split_top_level
-from .errors import ConfigError, DesignerError, GdabenchError
+from .config import Experiment, PluginChoice, parse_params, parse_seeds
+from .errors import ConfigError, GdabenchError, RunFailure, Terminated
+from .execution.options import Execution
 from .plugins import KINDS, registry
-from .results import RunDirectory
 from .report.diversity import NEAR_COPY, SURVIVORS
+from .report.summary import failure_counts, summarize
 from .report.tables import summary_cells
-from .runner import GenerationReport, compare as run_compare, default_out_dir
-from .summary import summarize
+from .results import RunDirectory
+from .runner import RunListener, compare as run_compare, default_out_dir
+from .plan import TrialSpec
+from .trial import GenerationResult
+
+try:  # typer >= 0.2x carries its own copy of click
+    from typer._click import exceptions as click_errors
+except ImportError:  # pragma: no cover - older typer uses click itself
+    from click import exceptions as click_errors  # type: ignore[no-redef]
 
 app = typer.Typer(
     help="Benchmark harness for robot-morphology designers (GA, CPPN-NEAT, generational diffusion).",
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,  # help texts show name[key=value] literally
 )
 console = Console()
 err_console = Console(stderr=True)
@@ -64,72 +76,164 @@ class _Guard:
         if self.run_dir is not None and (self.run_dir / "run.json").exists():
             hint = f" (results so far are in {self.run_dir}; continue with: gdabench compare --resume {self.run_dir})"
         if isinstance(exc, KeyboardInterrupt):
-            raise _fail(f"interrupted{hint}", 130)
-        if isinstance(exc, DesignerError):
+            signal.signal(signal.SIGINT, signal.SIG_IGN)  # one more Ctrl-C must not cut the exit short
+            raise _fail(f"{'terminated' if isinstance(exc, Terminated) else 'interrupted'}{hint}", 143 if isinstance(exc, Terminated) else 130)
+        if isinstance(exc, RunFailure):
             raise _fail(f"{exc}{hint}", 1)
         if isinstance(exc, GdabenchError):
             raise _fail(str(exc), 2)
         raise _fail(f"internal error: {type(exc).__name__}: {exc}{hint} (set GDABENCH_DEBUG=1 for the traceback)", 1)
 
 
-# -- list -------------------------------------------------------------------------------------
+# -- list, info ---------------------------------------------------------------------------------
+def _kinds(kind: str | None) -> tuple[str, ...]:
+    if kind is None:
+        return KINDS
+    if KIND_ALIASES.get(kind, kind) not in KINDS:
+        raise ConfigError(f"unknown kind {kind!r}; choose designers, envs or controllers")
+    return (KIND_ALIASES.get(kind, kind),)
+
+
 @app.command("list")
 def list_plugins(
     kind: Annotated[Optional[str], typer.Argument(help="designers, envs or controllers (default: all)")] = None,
 ) -> None:
     """Show every installed designer, environment and controller, and the package it comes from."""
     with _Guard():
-        kinds = KINDS
-        if kind is not None:
-            if KIND_ALIASES.get(kind, kind) not in KINDS:
-                raise ConfigError(f"unknown kind {kind!r}; choose designers, envs or controllers")
-            kinds = (KIND_ALIASES.get(kind, kind),)  # type: ignore[assignment]
         reg = registry()
-        for k in kinds:
+        for k in _kinds(kind):
             table = Table(title=f"{k}s", title_justify="left", show_edge=False)
             table.add_column("name", style="bold")
             table.add_column("description")
             table.add_column("package")
-            for item in reg.items(k):
+            for item in reg.items(k):  # type: ignore[arg-type]
                 table.add_row(escape(item.name), escape(item.spec.description), escape(f"{item.distribution} {item.version}".strip()))
             console.print(table)
 
 
-# -- run / compare ----------------------------------------------------------------------------
-Budget = Annotated[int, typer.Option(help="Evaluations per run (unique valid bodies).")]
-Population = Annotated[int, typer.Option(help="Bodies per generation.")]
-Seeds = Annotated[Optional[str], typer.Option(help="Seeds: 0,1,2 or 0..9 (default: 0).")]
-Repetitions = Annotated[Optional[int], typer.Option("--repetitions", "-r", help="Number of seeds: 0..N-1 (instead of --seeds).")]
-Shape = Annotated[str, typer.Option(help="Body shape HxW.")]
-Env = Annotated[str, typer.Option("--env", "-e", help="Environment, optionally with parameters: name[key=value,...].")]
-Controller = Annotated[Optional[str], typer.Option("--controller", "-c", help="Controller for physics environments.")]
-Out = Annotated[Optional[Path], typer.Option("--out", "-o", help="Run directory (default: results/<time>-<env>-<designers>).")]
-DesignerParam = Annotated[
-    Optional[list[str]], typer.Option("--designer-param", "-D", help="Designer parameter KEY=VALUE (all designers) or NAME.KEY=VALUE.")
-]
-EnvParam = Annotated[Optional[list[str]], typer.Option("--env-param", "-E", help="Environment parameter KEY=VALUE.")]
-ControllerParam = Annotated[Optional[list[str]], typer.Option("--controller-param", "-C", help="Controller parameter KEY=VALUE.")]
-Workers = Annotated[
-    Optional[int], typer.Option(help="Evaluations at once (default: 1 for serial, every CPU for process, every cluster CPU for ray).")
-]
-ExecutorOpt = Annotated[
-    Optional[str], typer.Option("--executor", help="serial, process or ray (default: serial for 1 worker, process for more).")
-]
-RayAddress = Annotated[Optional[str], typer.Option(help="Ray cluster to join: auto (the one this machine is part of) or HOST:PORT (default: start a local one).")]
-Timeout = Annotated[Optional[float], typer.Option(help="Seconds an evaluation may take before it is stopped and recorded as 'timeout'.")]
-Cache = Annotated[Optional[Path], typer.Option(help="Directory of an evaluation cache shared across runs (deterministic environments).")]
-Resume = Annotated[
-    Optional[Path], typer.Option(help="Continue the run in this directory (its experiment is taken from it; execution options may change).")
-]
-Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
-NoReport = Annotated[bool, typer.Option("--no-report", help="Only print the summary table; do not write the report (plots, HTML).")]
-StopAtOptimum = Annotated[
-    bool, typer.Option("--stop-at-optimum", help="End each run once it reaches the environment's optimum (saves the rest of its budget).")
-]
+@app.command()
+def info(
+    name: Annotated[str, typer.Argument(help="A designer, environment or controller name (see gdabench list).")],
+    kind: Annotated[Optional[str], typer.Option(help="designers, envs or controllers, where a name is used by several kinds.")] = None,
+) -> None:
+    """Show a plugin's parameters: type, default and what each one does."""
+    from .params import describe
+
+    with _Guard():
+        reg = registry()
+        found = [(k, reg.get(k, name)) for k in _kinds(kind) if name in reg.names(k)]  # type: ignore[arg-type]
+        if not found:
+            reg.get(_kinds(kind)[0] if kind else "designer", name)  # raises the not-found error, with suggestions
+        for k, item in found:
+            console.print(escape(f"{k} {item.name} ({item.distribution} {item.version}): {item.spec.description}".strip()), highlight=False)
+            table = Table(show_edge=False)
+            for column in ("parameter", "type", "default", "description"):
+                table.add_column(column)
+            for row in describe(item.spec):
+                table.add_row(*map(escape, row))
+            console.print(table)
+
+
+# -- run / compare --------------------------------------------------------------------------------
+def _option(*names: str, help: str) -> Any:
+    return typer.Option(*names, help=help)
+
+
+@dataclass
+class RunOptions:
+    """The options ``compare`` and ``run`` share (typer reads them from :data:`RUN_OPTIONS`)."""
+
+    env: str = "simple"
+    controller: Optional[str] = None
+    budget: int = 1000
+    population: int = 25
+    seeds: Optional[str] = None
+    repetitions: Optional[int] = None
+    shape: str = "5x5"
+    out: Optional[Path] = None
+    designer_param: Optional[list[str]] = None
+    env_param: Optional[list[str]] = None
+    controller_param: Optional[list[str]] = None
+    jobs: Optional[int] = None
+    workers: int = 1
+    executor: str = "local"
+    ray_address: Optional[str] = None
+    timeout: Optional[float] = None
+    cache: Optional[Path] = None
+    resume: Optional[Path] = None
+    stop_at_optimum: bool = False
+    quiet: bool = False
+    no_report: bool = False
+
+    def experiment(self, designers: str) -> Experiment:
+        env = PluginChoice.parse(self.env).with_params(parse_params(self.env_param, "environment parameter"))
+        controller = None
+        if self.controller:
+            controller = PluginChoice.parse(self.controller).with_params(parse_params(self.controller_param, "controller parameter"))
+        elif self.controller_param:
+            raise ConfigError("--controller-param given without --controller")
+        return Experiment(
+            designers=tuple(_designer_choices(designers, self.designer_param)),
+            envs=(env,),
+            controller=controller,
+            shape=parse_shape(self.shape),
+            population=self.population,
+            budget=self.budget,
+            seeds=tuple(parse_seeds(self.seeds, self.repetitions)),
+            stop_at_optimum=self.stop_at_optimum,
+        )
+
+    def execution(self) -> Execution:
+        cache = str(self.cache) if self.cache is not None else None
+        return Execution(self.executor, self.jobs, self.workers, self.timeout, self.ray_address, cache)
+
+
+#: typer's view of RunOptions: option names and help, in the order --help lists them
+RUN_OPTIONS: dict[str, Any] = {
+    "env": _option("--env", "-e", help="Environment, optionally with parameters: name[key=value,...]."),
+    "controller": _option("--controller", "-c", help="Controller for physics environments, e.g. ppo or open-loop[period=30]."),
+    "budget": _option("--budget", help="Evaluations per trial (unique valid bodies)."),
+    "population": _option("--population", help="Bodies per generation."),
+    "seeds": _option("--seeds", help="Seeds: 0,1,2 or 0..9 (default: 0)."),
+    "repetitions": _option("--repetitions", "-r", help="Number of seeds: 0..N-1 (instead of --seeds)."),
+    "shape": _option("--shape", help="Body shape HxW."),
+    "out": _option("--out", "-o", help="Run directory (default: results/<time>-<env>-<designers>)."),
+    "designer_param": _option("--designer-param", "-D", help="Designer parameter KEY=VALUE (all designers) or NAME.KEY=VALUE."),
+    "env_param": _option("--env-param", "-E", help="Environment parameter KEY=VALUE."),
+    "controller_param": _option("--controller-param", "-C", help="Controller parameter KEY=VALUE."),
+    "jobs": _option("--jobs", "-j", help="Trials (designer x seed) at once (default: as many as the CPUs allow --workers each)."),
+    "workers": _option("--workers", help="Evaluation processes per trial (default 1: evaluate in the trial's own process)."),
+    "executor": _option("--executor", help="local (processes on this machine) or ray (actors on a Ray cluster)."),
+    "ray_address": _option("--ray-address", help="Ray cluster to join: auto or HOST:PORT (default: start a local one)."),
+    "timeout": _option("--timeout", help="Seconds an evaluation may take before it is stopped and recorded as 'timeout'."),
+    "cache": _option("--cache", help="Directory of an evaluation cache shared across runs (deterministic environments)."),
+    "resume": _option("--resume", help="Continue the run in this directory (its experiment is taken from it; execution options may change)."),
+    "stop_at_optimum": _option("--stop-at-optimum", help="End each trial once it reaches the environment's optimum."),
+    "quiet": _option("--quiet", "-q", help="No progress display."),
+    "no_report": _option("--no-report", help="Only print the summary table; do not write the report (plots, HTML)."),
+}
+
+
+def with_run_options(command: Callable[..., None]) -> Callable[..., None]:
+    """Give ``command(..., options: RunOptions)`` the shared options as typer parameters."""
+    own = [p for p in inspect.signature(command, eval_str=True).parameters.values() if p.name != "options"]
+    types = get_type_hints(RunOptions)
+    shared = [
+        inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, default=f.default, annotation=Annotated[types[f.name], RUN_OPTIONS[f.name]])
+        for f in fields(RunOptions)
+    ]
+
+    def wrapper(**kwargs: Any) -> None:
+        options = RunOptions(**{f.name: kwargs.pop(f.name) for f in fields(RunOptions)})
+        command(**kwargs, options=options)
+
+    wrapper.__name__, wrapper.__doc__ = command.__name__, command.__doc__
+    wrapper.__signature__ = inspect.Signature([*own, *shared])  # type: ignore[attr-defined]
+    return wrapper
 
 
 def _designer_choices(designers: str, designer_params: list[str] | None) -> list[PluginChoice]:
-    choices = [PluginChoice.parse(text) for text in split_top_level(designers)]
+    choices = PluginChoice.parse_list(designers)
     if not choices:
         raise ConfigError("no designer given")
     shared: dict[str, Any] = {}
@@ -146,111 +250,95 @@ def _designer_choices(designers: str, designer_params: list[str] | None) -> list
     return [c.with_params({**shared, **targeted.get(c.name, {}), **targeted.get(c.label, {})}) for c in choices]
 
 
-def _execute(
-    designers: str,
-    *,
-    env: str,
-    controller: str | None,
-    budget: int,
-    population: int,
-    seeds: str | None,
-    repetitions: int | None,
-    shape: str,
-    out: Path | None,
-    designer_param: list[str] | None,
-    env_param: list[str] | None,
-    controller_param: list[str] | None,
-    workers: int | None,
-    executor: str | None,
-    ray_address: str | None,
-    timeout: float | None,
-    cache: Path | None,
-    resume: Path | None,
-    quiet: bool,
-    no_report: bool = False,
-    stop_at_optimum: bool = False,
-) -> None:
-    guard = _Guard(resume or out)
+class _Display(RunListener):
+    """A progress display: one bar for the whole run and one line per running trial."""
+
+    def __init__(self, experiment: Experiment, done: dict[tuple[str, str, int], int], quiet: bool):
+        self.budget, self.quiet = experiment.budget, quiet
+        self.done = done
+        self.progress = Progress(
+            TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("evaluations"),
+            TimeElapsedColumn(), TimeRemainingColumn(), console=err_console, disable=quiet,
+        )  # fmt: skip
+        trials = len(experiment.designers) * len(experiment.envs) * len(experiment.seeds)
+        self.total = self.progress.add_task("all trials", total=trials * self.budget, completed=sum(done.values()))
+        self.lines: dict[int, TaskID] = {}
+
+    def trial_started(self, spec: TrialSpec) -> None:
+        if not self.progress.live.is_started:  # started late so that set-up errors print alone
+            self.progress.start()
+        done = self.done.get(spec.key, 0)
+        self.lines[spec.index] = self.progress.add_task(escape(f"  {spec.title}"), total=self.budget, completed=done)
+
+    def generation(self, spec: TrialSpec, result: GenerationResult) -> None:
+        report = result.report
+        self.done[spec.key] = report.n_evals
+        best = "-" if report.best != report.best else f"{report.best:.4g}"
+        self.progress.update(self.lines[spec.index], completed=report.n_evals, description=escape(f"  {spec.title} gen {report.generation} best {best}"))
+        self.progress.update(self.total, completed=sum(self.done.values()))
+
+    def trial_finished(self, spec: TrialSpec, error: str | None) -> None:
+        task = self.lines.pop(spec.index, None)
+        if task is not None:
+            self.progress.remove_task(task)
+        if error is not None and not self.quiet:  # the run's last line names failed trials too
+            self.progress.console.print(escape(f"trial {spec.title} failed: {error}"), style="red", highlight=False)
+
+
+def _execute(designers: str, options: RunOptions) -> None:
+    guard = _Guard(options.resume or options.out)
     with guard:
-        if resume is not None:
-            run = RunDirectory.open(resume)
-            experiment = Experiment.from_json(run.meta["config"])
-        else:
-            env_choice = PluginChoice.parse(env).with_params(parse_params(env_param, "environment parameter"))
-            ctrl_choice = None
-            if controller:
-                ctrl_choice = PluginChoice.parse(controller).with_params(parse_params(controller_param, "controller parameter"))
-            elif controller_param:
-                raise ConfigError("--controller-param given without --controller")
-            experiment = Experiment(
-                designers=tuple(_designer_choices(designers, designer_param)),
-                env=env_choice,
-                controller=ctrl_choice,
-                shape=parse_shape(shape),
-                population=population,
-                budget=budget,
-                seeds=tuple(parse_seeds(seeds, repetitions)),
-                stop_at_optimum=stop_at_optimum,
-            )
-            experiment.validate()
-        runs = len(experiment.designers) * len(experiment.seeds)
-        progress = Progress(
-            TextColumn("{task.description}"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TextColumn("evaluations"),
-            TimeElapsedColumn(),
-            TimeRemainingColumn(),
-            console=err_console,
-            disable=quiet,
-        )
-        done: dict[tuple[str, int], int] = {}
-        if resume is not None:
+        execution = options.execution()
+        done: dict[tuple[str, str, int], int] = {}
+        if options.resume is not None:
+            run = RunDirectory.open(options.resume)
+            experiment = Experiment.from_json(run.meta["config"], f"{run.path / 'run.json'}: config")
             frame = run.load_evaluations()
             if len(frame):
-                done = {(k[0], int(k[1])): int(v) for k, v in frame.groupby(["designer", "seed"])["n_evals"].max().items()}
-        task = progress.add_task("starting", total=runs * experiment.budget, completed=sum(done.values()))
-
-        def on_generation(report: GenerationReport) -> None:
-            if not progress.live.is_started:  # started late so that set-up errors print alone
-                progress.start()
-            done[(report.designer, report.seed)] = report.n_evals
-            best = "-" if report.best != report.best else f"{report.best:.4g}"
-            progress.update(
-                task,
-                completed=sum(done.values()),
-                description=escape(f"{report.designer} seed {report.seed} gen {report.generation} best {best}"),
-            )
-
-        if out is None and resume is None:
-            out = default_out_dir(experiment)
-        guard.run_dir = resume or out
+                done = {(str(k[0]), str(k[1]), int(k[2])): int(v) for k, v in frame.groupby(["env", "designer", "seed"])["n_evals"].max().items()}
+        else:
+            if not designers:
+                raise ConfigError("give --designers, e.g. --designers ga,cppn,gda")
+            experiment = options.experiment(designers)
+        out = options.resume or options.out or default_out_dir(experiment)
+        guard.run_dir = out
+        display = _Display(experiment, done, options.quiet)
         try:
-            run = run_compare(
-                experiment,
-                resume or out,
-                resume=resume is not None,
-                workers=workers,
-                executor=executor,
-                timeout=timeout,
-                ray_address=ray_address,
-                cache=cache,
-                on_generation=on_generation,
-                command=["gdabench", *sys.argv[1:]],
-            )
+            run = run_compare(experiment, out, resume=options.resume is not None, execution=execution, listener=display,
+                              command=["gdabench", *sys.argv[1:]])
         finally:
-            progress.stop()
-        execution = (run.meta.get("resumed") or [None])[-1] if resume is not None else run.meta.get("execution")
-        if cache is not None and isinstance(execution, dict) and execution.get("cache") is None:
-            err_console.print(f"[yellow]note:[/] environment {escape(repr(experiment.env.name))} is not deterministic; the evaluation cache was not used")
-    if no_report:
+            display.progress.stop()
+        for env, reason in _uncached(run, execution):
+            err_console.print(f"[yellow]note:[/] {escape(reason)}; the evaluation cache was not used for {escape(env)}", highlight=False)
+    if not options.no_report:
+        with _Guard():
+            try:
+                _write_report(run.path)
+            except GdabenchError as exc:
+                raise _fail(f"the run is complete in {run.path}, but its report failed: {exc} (retry with: gdabench report {run.path})", 1) from None
+    else:
         _print_summary(run)
-        return
-    with _Guard():
-        try:
-            _write_report(run.path)
-        except GdabenchError as exc:
-            raise _fail(f"the run is complete in {run.path}, but its report failed: {exc} (retry with: gdabench report {run.path})", 1) from None
+    _report_failures(run)
+
+
+def _uncached(run: RunDirectory, execution: Execution) -> list[tuple[str, str]]:
+    if execution.cache is None:
+        return []
+    from .plan import Plan
+
+    plan = Plan.resolve(Experiment.from_json(run.meta["config"]), registry(), designers=False)
+    return sorted(plan.uncacheable.items())
+
+
+def _report_failures(run: RunDirectory) -> None:
+    """Say which evaluations went wrong; exit 1 if a trial's every evaluation failed."""
+    counts = failure_counts(run.load_evaluations())
+    for row in counts.itertuples():
+        err_console.print(escape(f"note: {row.designer} on {row.env}: {row.line}"), style="yellow", highlight=False, soft_wrap=True)
+    hopeless = counts[counts["all_failed_trials"] > 0]
+    if len(hopeless):
+        first = hopeless.iloc[0]
+        raise _fail(f"every evaluation failed in {int(hopeless['all_failed_trials'].sum())} trial(s), e.g. {first['designer']} on {first['env']}", 1)
 
 
 def _print_table(title: str, headers: list[str], rows: list[list[str]]) -> None:
@@ -264,7 +352,7 @@ def _print_table(title: str, headers: list[str], rows: list[list[str]]) -> None:
 
 def _print_summary(run: RunDirectory) -> None:
     summary = summarize(run.load_evaluations(), run.meta.get("env_optimum"))
-    _print_table(f"summary ({run.path})", *summary_cells(summary))
+    _print_table(f"summary ({run.path})", *summary_cells(summary, compact=True))
 
 
 def _write_report(run_dir: Path, out: Path | None = None, **options: Any) -> None:
@@ -272,98 +360,64 @@ def _write_report(run_dir: Path, out: Path | None = None, **options: Any) -> Non
     from .report.build import write_report  # matplotlib is imported only when a report is made
 
     report = write_report(run_dir, out, **options)
-    _print_table(f"summary ({report.run_path})", report.headers, report.rows)
+    _print_table(f"summary ({report.run_path})", *summary_cells(report.summary, compact=True))
     for note in report.notes:
         err_console.print(f"[yellow]note:[/] {escape(note)}", highlight=False, soft_wrap=True)
     console.print(escape(f"report: {report.out / 'report.html'} (summary: {report.out / 'summary.md'})"), highlight=False, soft_wrap=True)
 
 
 @app.command()
+@with_run_options
 def compare(
-    designers: Annotated[str, typer.Option("--designers", "-d", help="Comma-separated designers, e.g. ga,cppn,gda or ga[survivors=5].")] = "",
-    env: Env = "simple",
-    controller: Controller = None,
-    budget: Budget = 1000,
-    population: Population = 25,
-    seeds: Seeds = None,
-    repetitions: Repetitions = None,
-    shape: Shape = "5x5",
-    out: Out = None,
-    designer_param: DesignerParam = None,
-    env_param: EnvParam = None,
-    controller_param: ControllerParam = None,
-    workers: Workers = None,
-    executor: ExecutorOpt = None,
-    ray_address: RayAddress = None,
-    timeout: Timeout = None,
-    cache: Cache = None,
-    resume: Resume = None,
-    quiet: Quiet = False,
-    no_report: NoReport = False,
-    stop_at_optimum: StopAtOptimum = False,
+    designers: Annotated[str, typer.Option("--designers", "-d", help="Comma-separated designers, e.g. ga,cppn,gda or ga[survivors=5],gda.")] = "",
+    *,
+    options: RunOptions,
 ) -> None:
     """Run several designers side by side under the same budget and seeds."""
-    if not designers and resume is None:
-        raise _fail("give --designers, e.g. --designers ga,cppn,gda", 2)
-    _execute(**{k: v for k, v in locals().items()})
+    _execute(designers, options)
 
 
 @app.command()
+@with_run_options
 def run(
     designer: Annotated[str, typer.Argument(help="Designer, optionally with parameters: name[key=value,...].")],
-    env: Env = "simple",
-    controller: Controller = None,
-    budget: Budget = 1000,
-    population: Population = 25,
-    seeds: Seeds = None,
-    repetitions: Repetitions = None,
-    shape: Shape = "5x5",
-    out: Out = None,
-    designer_param: DesignerParam = None,
-    env_param: EnvParam = None,
-    controller_param: ControllerParam = None,
-    workers: Workers = None,
-    executor: ExecutorOpt = None,
-    ray_address: RayAddress = None,
-    timeout: Timeout = None,
-    cache: Cache = None,
-    resume: Resume = None,
-    quiet: Quiet = False,
-    no_report: NoReport = False,
-    stop_at_optimum: StopAtOptimum = False,
+    *,
+    options: RunOptions,
 ) -> None:
-    """Run one designer."""
-    _execute(designers=designer, **{k: v for k, v in locals().items() if k != "designer"})
+    """Run one designer (compare with a single designer)."""
+    if len(PluginChoice.parse_list(designer)) > 1:
+        raise _fail(f"run takes one designer, got {designer!r}; use compare for several", 2)
+    _execute(designer, options)
 
 
 @app.command()
 def evaluate(
     body: Annotated[str, typer.Argument(help="Body in text form, rows separated by '/', e.g. 44444/44444/44444/44444/44444.")],
-    env: Env = "simple",
-    controller: Controller = None,
-    env_param: EnvParam = None,
-    controller_param: ControllerParam = None,
+    env: Annotated[str, RUN_OPTIONS["env"]] = "simple",
+    controller: Annotated[Optional[str], RUN_OPTIONS["controller"]] = None,
+    env_param: Annotated[Optional[list[str]], RUN_OPTIONS["env_param"]] = None,
+    controller_param: Annotated[Optional[list[str]], RUN_OPTIONS["controller_param"]] = None,
     seed: Annotated[int, typer.Option(help="Run seed (the evaluation seed is derived from it and the body).")] = 0,
 ) -> None:
     """Score one body, exactly as a run with this seed would."""
     with _Guard():
         from . import seeding
         from .body import Body
-        from .evaluation import OK, EvalTask, evaluate as evaluate_task
+        from .config import check_seed
+        from .execution.evaluation import OK, EvalTask, evaluate as evaluate_task
+        from .plan import Plan
 
         parsed = Body.from_text(body)
-        reg = registry()
-        env_choice = PluginChoice.parse(env).with_params(parse_params(env_param, "environment parameter"))
-        ctrl_choice = PluginChoice.parse(controller).with_params(parse_params(controller_param, "controller parameter")) if controller else None
-        Experiment((PluginChoice("random"),), env_choice, ctrl_choice, shape=parsed.shape, population=1, budget=1).validate(reg)
-        env_recipe = reg.get("environment", env_choice.name).spec.recipe({"shape": parsed.shape, **env_choice.params})
-        reason = env_recipe.build().invalid_reason(parsed)
+        check_seed(seed)
+        options = RunOptions(env=env, controller=controller, env_param=env_param, controller_param=controller_param,
+                             shape=f"{parsed.shape[0]}x{parsed.shape[1]}", population=1, budget=1)
+        plan = Plan.resolve(options.experiment("random"), registry(), designers=False)
+        scorer, _ = plan.scorers()
+        reason = scorer.invalid_reason(parsed)
         if reason is not None:
-            raise ConfigError(f"body {parsed.text} is invalid for {env_choice.name!r}: {reason}")
-        ctrl_recipe = None
-        if ctrl_choice is not None:
-            ctrl_recipe = reg.get("controller", ctrl_choice.name).spec.recipe(ctrl_choice.params)
-        outcome = evaluate_task(EvalTask(parsed, seeding.evaluation_seed(seed, parsed.hash), env_recipe, ctrl_recipe))
+            raise ConfigError(f"body {parsed.text} is invalid for {env!r}: {reason}")
+        task = EvalTask(parsed, seeding.evaluation_seed(seed, parsed.hash), plan.envs[0].factory, plan.controller)
+        outcome = evaluate_task(task, plan.built)
         if outcome.status != OK:
             raise _fail(f"evaluation failed: {outcome.message}", 1)
         console.print(f"{outcome.reward:.6g}")
@@ -378,7 +432,7 @@ def report(
     ] = None,
     survivors: Annotated[int, typer.Option(help="Diversity: survivors = this many best bodies evaluated before a generation.")] = SURVIVORS,
     near_copy: Annotated[int, typer.Option(help="Diversity: a proposal at most this many voxels from a survivor is a near-copy.")] = NEAR_COPY,
-    animations: Annotated[bool, typer.Option(help="Animate the best bodies, if the environment can render them.")] = True,
+    animations: Annotated[bool, typer.Option("--animations/--no-animations", help="Animate the best bodies, if the environment can render them.")] = True,
 ) -> None:
     """Write plots, tables and a self-contained HTML report of a run directory (also mid-run)."""
     with _Guard():
@@ -403,7 +457,20 @@ def replay(
 
 
 def main() -> None:
-    app()
+    """The console script: usage errors become one ``error:`` line too (exit 2)."""
+    command = typer.main.get_command(app)
+    try:
+        code = command.main(prog_name="gdabench", standalone_mode=False)
+    except click_errors.NoArgsIsHelpError as exc:
+        exc.show()
+        code = 0
+    except click_errors.UsageError as exc:
+        hint = f" (see: {exc.ctx.command_path} --help)" if exc.ctx is not None else ""
+        err_console.print(f"[bold red]error:[/] {escape(' '.join(exc.format_message().split()))}{escape(hint)}", highlight=False, soft_wrap=True)
+        code = 2
+    except (click_errors.Abort if hasattr(click_errors, "Abort") else typer.Abort):
+        code = 130
+    sys.exit(code if isinstance(code, int) else 0)
 
 
 if __name__ == "__main__":

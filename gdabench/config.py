@@ -1,25 +1,27 @@
-"""Experiment configuration: parsing what the user typed and checking it before anything runs.
+"""Experiment configuration: what the user asked for, parsed and bounded before anything runs.
 
 Designers can carry their own parameters inline, so one comparison can hold several settings
 of the same algorithm: ``ga,ga[survivors=5],gda[epochs=50]``.  The label (the text as typed)
-is what the results' ``designer`` column shows.
+is what the results' ``designer`` column shows.  Values are read as JSON where they parse
+(``5``, ``0.1``, ``true``, ``[1, 2]``) and as text otherwise; :mod:`gdabench.params` then
+converts them to the types the plugin's constructor declares.
 """
 
 from __future__ import annotations
 
-import inspect
 import json
 from dataclasses import asdict, dataclass, field
 from typing import Any, Mapping, Sequence
 
 from .body import DEFAULT_SHAPE
 from .errors import ConfigError
-from .plugins import Kind, Registry, registry
-from .specs import Spec
 
-#: keyword arguments the harness itself passes to designer factories
-HARNESS_DESIGNER_ARGS = ("shape", "population", "budget", "seed")
-HARNESS_ENV_ARGS = ("shape",)
+#: bounds that keep a run's memory and time finite (documented in the docs' "Limits")
+MAX_POPULATION = 10_000
+MAX_BUDGET = 10_000_000
+MAX_SIDE = 64
+MAX_SEED = 2**32 - 1
+MAX_SEEDS = 10_000
 
 
 def parse_value(text: str) -> Any:
@@ -92,11 +94,37 @@ class PluginChoice:
             raise ConfigError(f"malformed choice {text!r}: missing name")
         return cls(name.strip(), params, text)
 
+    @classmethod
+    def parse_list(cls, text: str) -> list[PluginChoice]:
+        """``'ga,gda[epochs=50]'`` -> one choice per comma-separated item."""
+        return [cls.parse(item) for item in split_top_level(text)]
+
     def with_params(self, extra: Mapping[str, Any]) -> PluginChoice:
         return PluginChoice(self.name, {**self.params, **extra}, self.label)
 
     def to_json(self) -> dict[str, Any]:
         return {"name": self.name, "label": self.label, "params": dict(self.params)}
+
+    @classmethod
+    def from_json(cls, data: Any, where: str) -> PluginChoice:
+        if isinstance(data, str):
+            return cls.parse(data)
+        if not isinstance(data, Mapping) or not isinstance(data.get("name"), str):
+            raise ConfigError(f"{where}: expected a name or a table with 'name', got {data!r}")
+        unknown = sorted(set(data) - {"name", "label", "params"})
+        if unknown:
+            raise ConfigError(f"{where}: unknown key {unknown[0]!r} (known: name, label, params)")
+        params = data.get("params", {})
+        if not isinstance(params, Mapping):
+            raise ConfigError(f"{where}.params: expected a table of key = value, got {params!r}")
+        return cls(data["name"], dict(params), str(data.get("label") or ""))
+
+
+def check_seed(seed: Any, what: str = "seed") -> int:
+    """A seed as an int in 0..MAX_SEED, or a one-line error."""
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
+        raise ConfigError(f"{what} must be an integer from 0 to {MAX_SEED}, got {seed!r}")
+    return seed
 
 
 def parse_seeds(text: str | Sequence[int] | None, repetitions: int | None = None) -> list[int]:
@@ -104,13 +132,13 @@ def parse_seeds(text: str | Sequence[int] | None, repetitions: int | None = None
     if repetitions is not None:
         if text not in (None, ""):
             raise ConfigError("give either --seeds or --repetitions, not both")
-        if repetitions < 1:
-            raise ConfigError(f"repetitions must be at least 1, got {repetitions}")
+        if not 1 <= repetitions <= MAX_SEEDS:
+            raise ConfigError(f"repetitions must be from 1 to {MAX_SEEDS}, got {repetitions}")
         return list(range(repetitions))
     if text is None or text == "":
         return [0]
     if not isinstance(text, str):
-        seeds = [int(s) for s in text]
+        seeds = list(text)
     else:
         seeds = []
         for part in text.split(","):
@@ -120,58 +148,36 @@ def parse_seeds(text: str | Sequence[int] | None, repetitions: int | None = None
                     lo, hi = (int(v) for v in part.split(".."))
                     if hi < lo:
                         raise ValueError
+                    if hi - lo + 1 > MAX_SEEDS:
+                        raise ConfigError(f"seeds {text!r} name {hi - lo + 1} seeds; at most {MAX_SEEDS} are allowed")
                     seeds.extend(range(lo, hi + 1))
                 else:
                     seeds.append(int(part))
             except ValueError:
                 raise ConfigError(f"malformed seeds {text!r}: expected e.g. 0,1,2 or 0..9") from None
-    if any(s < 0 for s in seeds):
-        raise ConfigError(f"seeds must be non-negative, got {seeds}")
+    if len(seeds) > MAX_SEEDS:
+        raise ConfigError(f"{len(seeds)} seeds given; at most {MAX_SEEDS} are allowed")
+    for s in seeds:
+        check_seed(s)
     if len(set(seeds)) != len(seeds):
         raise ConfigError(f"seeds must not repeat, got {seeds}")
     return seeds
 
 
-def accepted_params(factory: Any) -> set[str] | None:
-    """Keyword parameters a factory accepts (following ``**kwargs`` up the MRO); None if unknowable."""
-    targets = [c.__init__ for c in inspect.getmro(factory) if "__init__" in vars(c)] if inspect.isclass(factory) else [factory]
-    names: set[str] = set()
-    for fn in targets:
-        try:
-            sig = inspect.signature(fn)
-        except (TypeError, ValueError):
-            return None
-        has_var_kw = False
-        for p in sig.parameters.values():
-            if p.kind is inspect.Parameter.VAR_KEYWORD:
-                has_var_kw = True
-            elif p.kind in (inspect.Parameter.KEYWORD_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD) and p.name != "self":
-                names.add(p.name)
-        if not has_var_kw:
-            return names
-    return None
-
-
-def check_params(kind: Kind, spec: Spec, params: Mapping[str, Any], reserved: Sequence[str] = ()) -> None:
-    """Raise a one-line error for parameters the factory does not accept."""
-    for key in params:
-        if key in reserved:
-            raise ConfigError(f"{kind} {spec.name!r}: {key!r} is set by the harness (use the --{key} option)")
-    accepted = accepted_params(spec.load())
-    if accepted is None:
-        return
-    unknown = sorted(set({**spec.defaults, **params}) - accepted)
-    if unknown:
-        choices = ", ".join(sorted(accepted - set(reserved))) or "(none)"
-        raise ConfigError(f"{kind} {spec.name!r} has no parameter {unknown[0]!r}; its parameters: {choices}")
+def _choices(value: PluginChoice | Sequence[PluginChoice]) -> tuple[PluginChoice, ...]:
+    return (value,) if isinstance(value, PluginChoice) else tuple(value)
 
 
 @dataclass(frozen=True)
 class Experiment:
-    """Everything that defines a comparison; the same Experiment and seeds give the same table."""
+    """Everything that defines a comparison; the same Experiment and seeds give the same table.
+
+    ``envs`` may hold several environments (a suite): every designer runs on each of them
+    with every seed.  A single :class:`PluginChoice` is accepted for ``designers`` and ``envs``.
+    """
 
     designers: tuple[PluginChoice, ...]
-    env: PluginChoice
+    envs: tuple[PluginChoice, ...]
     controller: PluginChoice | None = None
     shape: tuple[int, int] = DEFAULT_SHAPE
     population: int = 25
@@ -180,55 +186,65 @@ class Experiment:
     #: end a run once it reaches the environment's optimum (the rest of its budget is not spent)
     stop_at_optimum: bool = False
 
-    def validate(self, reg: Registry | None = None) -> None:
-        """Check names, numbers and parameters; raises :class:`ConfigError` with one line."""
-        reg = reg or registry()
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "designers", _choices(self.designers))
+        object.__setattr__(self, "envs", _choices(self.envs))
+        object.__setattr__(self, "shape", tuple(self.shape))
+        object.__setattr__(self, "seeds", tuple(self.seeds))
+
+    def check(self) -> None:
+        """Check the numbers and lists (plugin names and parameters are checked when resolved)."""
         if not self.designers:
             raise ConfigError("no designer given")
-        labels = [d.label for d in self.designers]
-        if len(set(labels)) != len(labels):
-            raise ConfigError(f"designers must not repeat: {', '.join(labels)}")
-        if self.population < 1:
-            raise ConfigError(f"population must be at least 1, got {self.population}")
+        if not self.envs:
+            raise ConfigError("no environment given")
+        for what, choices in (("designers", self.designers), ("environments", self.envs)):
+            labels = [c.label for c in choices]
+            if len(set(labels)) != len(labels):
+                raise ConfigError(f"{what} must not repeat: {', '.join(labels)}")
+        if len(self.shape) != 2 or not all(isinstance(s, int) and not isinstance(s, bool) and 1 <= s <= MAX_SIDE for s in self.shape):
+            raise ConfigError(f"shape must be two sides from 1 to {MAX_SIDE} voxels, got {self.shape}")
+        for name, value, high in (("population", self.population, MAX_POPULATION), ("budget", self.budget, MAX_BUDGET)):
+            if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= high:
+                raise ConfigError(f"{name} must be an integer from 1 to {high:,}, got {value!r}")
         if self.budget < self.population:
             raise ConfigError(f"budget ({self.budget}) must be at least the population ({self.population})")
         if not self.seeds:
             raise ConfigError("no seed given")
-        env_reg = reg.get("environment", self.env.name)
-        check_params("environment", env_reg.spec, self.env.params, HARNESS_ENV_ARGS)
-        needs_controller = bool(getattr(env_reg.spec, "requires_controller", False))
-        if needs_controller and self.controller is None:
-            known = ", ".join(reg.names("controller")) or "(none installed)"
-            raise ConfigError(f"environment {self.env.name!r} needs a controller: add --controller NAME (known: {known})")
-        if self.controller is not None:
-            if not needs_controller:
-                raise ConfigError(f"environment {self.env.name!r} scores bodies directly and takes no controller")
-            ctrl_reg = reg.get("controller", self.controller.name)
-            check_params("controller", ctrl_reg.spec, self.controller.params)
-        for d in self.designers:
-            check_params("designer", reg.get("designer", d.name).spec, d.params, HARNESS_DESIGNER_ARGS)
+        if len(self.seeds) > MAX_SEEDS:
+            raise ConfigError(f"{len(self.seeds)} seeds given; at most {MAX_SEEDS} are allowed")
+        for s in self.seeds:
+            check_seed(s)
+        if len(set(self.seeds)) != len(self.seeds):
+            raise ConfigError(f"seeds must not repeat, got {list(self.seeds)}")
 
     def to_json(self) -> dict[str, Any]:
         data = asdict(self)
         data["designers"] = [d.to_json() for d in self.designers]
-        data["env"] = self.env.to_json()
+        data["envs"] = [e.to_json() for e in self.envs]
         data["controller"] = self.controller.to_json() if self.controller else None
         data["shape"] = list(self.shape)
         data["seeds"] = list(self.seeds)
         return data
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> Experiment:
-        def choice(d: Mapping[str, Any] | None) -> PluginChoice | None:
-            return None if d is None else PluginChoice(d["name"], dict(d.get("params", {})), d.get("label", d["name"]))
-
-        return cls(
-            designers=tuple(choice(d) for d in data["designers"]),  # type: ignore[misc]
-            env=choice(data["env"]),  # type: ignore[arg-type]
-            controller=choice(data.get("controller")),
-            shape=tuple(data["shape"]),  # type: ignore[arg-type]
-            population=int(data["population"]),
-            budget=int(data["budget"]),
-            seeds=tuple(int(s) for s in data["seeds"]),
-            stop_at_optimum=bool(data.get("stop_at_optimum", False)),
-        )
+    def from_json(cls, data: Any, where: str = "config") -> Experiment:
+        """Read :meth:`to_json`'s form (also the single ``env`` of runs made before suites)."""
+        if not isinstance(data, Mapping):
+            raise ConfigError(f"{where}: expected a table, got {type(data).__name__}")
+        try:
+            envs = data["envs"] if "envs" in data else [data["env"]]
+            return cls(
+                designers=tuple(PluginChoice.from_json(d, f"{where}.designers") for d in data["designers"]),
+                envs=tuple(PluginChoice.from_json(e, f"{where}.envs") for e in envs),
+                controller=None if data.get("controller") is None else PluginChoice.from_json(data["controller"], f"{where}.controller"),
+                shape=tuple(data["shape"]),  # type: ignore[arg-type]
+                population=data["population"],
+                budget=data["budget"],
+                seeds=tuple(data["seeds"]),
+                stop_at_optimum=bool(data.get("stop_at_optimum", False)),
+            )
+        except KeyError as exc:
+            raise ConfigError(f"{where}: missing {exc.args[0]!r}") from None
+        except TypeError as exc:
+            raise ConfigError(f"{where}: malformed ({exc})") from None

@@ -32,9 +32,31 @@ class PluginError(GdabenchError):
     """A plugin failed to import, broke its contract, or collided with another plugin."""
 
 
-class DesignerError(GdabenchError):
+class RunFailure(GdabenchError):
+    """A run started and failed while running; its directory keeps what was written and can be resumed."""
+
+
+class DesignerError(RunFailure):
     """A designer raised or misbehaved during a run; the run directory stays resumable."""
 
 
 class RunDirectoryError(GdabenchError):
     """A results directory is missing, unreadable, or not a gdabench run."""
+
+
+class RunLockedError(RunDirectoryError):
+    """Another process is writing the run directory (a run or a resume holds its lock)."""
+
+
+class TrialError(RunFailure):
+    """Trials (a designer on an environment with a seed) failed; the other trials of the run went on."""
+
+
+class Terminated(KeyboardInterrupt):
+    """The process was asked to stop (SIGTERM): handled as Ctrl-C is, with its own exit code."""
+
+
+def one_line(exc: BaseException) -> str:
+    """``Type: first line of the message``: how a failure is recorded in a row or reported."""
+    text = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {text[0] if text else ''}".rstrip(": ")

@@ -17,9 +17,10 @@ import pandas as pd
 from .body import Body, as_body
 from .config import Experiment
 from .errors import ConfigError, RunDirectoryError
-from .evaluation import OK
+from .execution.evaluation import OK
+from .plan import Plan
 from .plugins import registry
-from .report.animation import animate, build_scorers
+from .report.animation import animate
 from .results import RunDirectory, atomic_write_bytes
 
 
@@ -54,13 +55,14 @@ def replay_run(run_dir: str | Path, *, body_hash: str | None = None, designer: s
     """Replay one body of a run (the best unless ``body_hash`` says otherwise); write a GIF if asked."""
     run = RunDirectory.open(run_dir)
     row = pick_body(run.load_evaluations(), body_hash, designer)
-    experiment = Experiment.from_json(run.meta["config"])
-    env, controller = build_scorers(experiment, registry())
+    plan = Plan.resolve(Experiment.from_json(run.meta["config"]), registry(), designers=False)
+    env_label = str(row["env"])
+    env, controller = plan.scorers(env_label)
     body, label, seed = as_body(row["body"]), str(row["designer"]), int(row["seed"])
-    data = animate(env, controller, body, run=run, designer=label, seed=seed)
+    data = animate(env, controller, body, seed=seed, workdir=plan.workdir(run.path, env_label, label, seed, body.hash))
     if gif is not None:
         if data is None:
-            raise ConfigError(f"environment {experiment.env.name!r} has nothing to show (it renders no frames)")
+            raise ConfigError(f"environment {env_label!r} has nothing to show (it renders no frames)")
         atomic_write_bytes(Path(gif), data)
     reward = float(row["reward"]) if math.isfinite(float(row["reward"])) else math.nan
     return Replayed(body, label, seed, reward, Path(gif) if gif is not None and data is not None else None)

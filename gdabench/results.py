@@ -3,39 +3,45 @@
 ::
 
     <run>/run.json              configuration, command line, versions, status
-    <run>/evaluations.parquet   one row per proposed body (see COLUMNS) of every finished
-                                (designer, seed) run
-    <run>/pending/<designer>-seed<k>/gen-<g>.parquet
-                                rows of a (designer, seed) run still in progress, one file per
-                                generation; merged into evaluations.parquet when that run ends
+    <run>/evaluations.parquet   one row per proposed body (see COLUMNS) of every finished trial
+    <run>/pending/<trial>/gen-<g>.parquet
+                                rows of a trial still in progress, one file per generation;
+                                merged into evaluations.parquet when the trial ends
     <run>/summary.csv           per designer: best reward, evaluations to the optimum, wall time
-    <run>/checkpoints/          pickled designer state after each generation (for --resume)
+    <run>/checkpoints/<trial>.pkl
+                                pickled designer state after each generation (for --resume)
+    <run>/.lock, .writer.json   held by the one process writing the run, and who that is
 
-Every file is written atomically (temporary file, then rename) and generations are appended,
-never rewritten, so a run killed at any instant leaves readable files behind, missing at most
-the generation in flight.  :meth:`RunDirectory.load_evaluations` returns finished and pending
-rows together.
+One process writes a run directory: a run or a resume holds an OS-level lock on it for its
+whole life, and a second writer is refused before it touches anything.  Every file is written
+to a uniquely named temporary file, flushed to disk and renamed, and generations are appended,
+never rewritten, so a run killed at any instant (or a machine losing power) leaves readable
+files behind, missing at most the generation in flight.  Readers need no lock:
+:meth:`RunDirectory.load_evaluations` returns a consistent snapshot of finished and pending rows
+while a run is going.
 """
 
 from __future__ import annotations
 
 import datetime as _dt
+import errno
+import io
 import json
 import os
-import pickle
 import platform
-import re
 import shutil
+import socket
 import sys
 import tempfile
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import pandas as pd
+from filelock import FileLock, Timeout
 
-from .errors import ConfigError, RunDirectoryError
+from .errors import ConfigError, RunDirectoryError, RunLockedError
 
 FORMAT = "gdabench-run/1"
 RUN_JSON = "run.json"
@@ -43,21 +49,24 @@ EVALUATIONS = "evaluations.parquet"
 SUMMARY = "summary.csv"
 CHECKPOINTS = "checkpoints"
 PENDING = "pending"
+LOCK, WRITER = ".lock", ".writer.json"
+#: times a reader starts over when a run finishes a trial under it
+READ_ATTEMPTS = 20
 
 #: columns of evaluations.parquet, in order; designers and environments may add their own after these
 COLUMNS: dict[str, str] = {
     "run_id": "identifier of the compare/run call",
     "designer": "designer label as given (name, or name[params])",
     "designer_name": "registered designer name",
-    "env": "environment name",
+    "env": "environment label as given (name, or name[params])",
     "env_version": "version of the environment's dynamics or scoring, e.g. gdabench/Walker-v1 ('' when it declares none)",
-    "controller": "controller name ('' when the environment needs none)",
-    "designer_params": "designer parameters as JSON",
+    "controller": "controller label ('' when the environment needs none)",
+    "designer_params": "designer parameters as JSON (defaults included, converted to their declared types)",
     "env_params": "environment parameters as JSON",
     "controller_params": "controller parameters as JSON",
     "shape": "body shape HxW",
     "population": "population size",
-    "budget": "evaluation budget of the run",
+    "budget": "evaluation budget of the trial",
     "seed": "seed of this repetition",
     "repetition": "index of the seed in the seed list",
     "generation": "generation index, from 0",
@@ -68,37 +77,61 @@ COLUMNS: dict[str, str] = {
     "status": "ok | invalid | duplicate | error | timeout",
     "message": "why a body was invalid or its evaluation failed",
     "cached": "reward taken from the evaluation cache (--cache) instead of computed in this run",
-    "n_evals": "evaluations used so far in this run, this row included",
-    "best_so_far": "best reward so far in this run",
+    "n_evals": "evaluations used so far in this trial, this row included",
+    "best_so_far": "best reward so far in this trial",
     "eval_seconds": "time spent evaluating this body",
     "design_seconds": "designer time for this generation (previous tell + ask)",
-    "elapsed_seconds": "wall time of this run when its generation finished",
+    "elapsed_seconds": "wall time of this trial when its generation finished",
     "timestamp": "UTC time the generation was written",
 }
-
 
 #: columns without which a table cannot be merged, resumed or reported
 REQUIRED_COLUMNS = (
     "designer", "env", "controller", "seed", "generation", "index", "body", "body_hash",
     "reward", "status", "n_evals", "best_so_far", "elapsed_seconds",
 )  # fmt: skip
+#: how the results table identifies a trial
+TRIAL_KEY = ["env", "designer", "seed"]
 
 
 def utc_now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
 
+def _fsync_dir(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
 def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` through a unique temporary file, flushed to disk before the rename."""
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
         os.chmod(tmp, 0o644)  # mkstemp creates private files; results are meant to be shared
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+    _fsync_dir(path.parent)
+
+
+def parquet_bytes(frame: pd.DataFrame) -> bytes:
+    buffer = io.BytesIO()
+    frame.to_parquet(buffer, index=False)
+    return buffer.getvalue()
+
+
+def no_space(exc: BaseException) -> bool:
+    """Whether ``exc`` says the disk (or the user's quota) is full."""
+    return isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT)
 
 
 def versions(distributions: Mapping[str, str]) -> dict[str, Any]:
@@ -126,24 +159,57 @@ class Checkpoint:
     next_generation: int
 
 
+def check_out_dir(path: Path) -> None:
+    """Refuse an output path that cannot become a run directory, before anything is created."""
+    if path.exists() and not path.is_dir():
+        raise ConfigError(f"output path {path} exists and is not a directory")
+    ancestor = path
+    while not ancestor.exists():
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise ConfigError(f"output path {path} is under {ancestor}, which is not a directory")
+    if not os.access(ancestor, os.W_OK | os.X_OK):
+        raise ConfigError(f"output path {path}: {ancestor} is not writable")
+
+
 class RunDirectory:
-    """A run's directory on disk."""
+    """A run's directory on disk; the writer of a run holds its lock (:meth:`lock`)."""
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
+        self._lock: FileLock | None = None
 
-    # -- creation and opening ------------------------------------------------------------------
+    # -- creation, opening, the writer's lock --------------------------------------------------
     @classmethod
     def create(cls, path: str | Path, meta: Mapping[str, Any]) -> RunDirectory:
+        """Make a new run directory (an empty existing one is taken) and lock it for this process."""
         run = cls(path)
-        if run.path.exists() and any(run.path.iterdir()):
-            raise ConfigError(f"output directory {run.path} already exists and is not empty; choose another --out or --resume it")
-        run.path.mkdir(parents=True, exist_ok=True)
-        run.write_meta({"format": FORMAT, **meta})
+        check_out_dir(run.path)
+        made = False
+        try:
+            run.path.parent.mkdir(parents=True, exist_ok=True)
+            os.mkdir(run.path)
+            made = True
+        except FileExistsError:
+            if not run.path.is_dir():
+                raise ConfigError(f"output path {run.path} exists and is not a directory") from None
+        except OSError as exc:
+            raise ConfigError(f"cannot create the run directory {run.path}: {exc.strerror or exc}") from None
+        run.lock()
+        try:
+            if any(entry not in (LOCK, WRITER) for entry in os.listdir(run.path)):
+                raise ConfigError(f"output directory {run.path} already exists and is not empty; choose another --out or --resume it")
+            run.write_meta({"format": FORMAT, **meta})
+        except BaseException:
+            run.unlock()
+            if made:
+                shutil.rmtree(run.path, ignore_errors=True)
+            raise
         return run
 
     @classmethod
     def open(cls, path: str | Path) -> RunDirectory:
+        """Open an existing run for reading (call :meth:`lock` to write to it)."""
         run = cls(path)
         if not run.path.is_dir():
             raise RunDirectoryError(f"{run.path} is not a directory")
@@ -152,33 +218,77 @@ class RunDirectory:
         meta = run.meta  # raises if unreadable
         if meta.get("format") != FORMAT:
             raise RunDirectoryError(f"{run.path / RUN_JSON} has unknown format {meta.get('format')!r}")
+        if not isinstance(meta.get("config"), dict):
+            raise RunDirectoryError(f"{run.path / RUN_JSON} has no 'config' table: not a run this version can read")
         return run
+
+    def lock(self) -> None:
+        """Become the run's one writer, or raise :class:`RunLockedError` naming the current one."""
+        lock = FileLock(self.path / LOCK, timeout=0)
+        try:
+            lock.acquire()
+        except Timeout:
+            raise RunLockedError(f"run {self.path} is being written by {self._writer()}; wait for it to end, or stop it first") from None
+        except OSError as exc:
+            raise ConfigError(f"cannot lock the run directory {self.path}: {exc.strerror or exc}") from None
+        self._lock = lock
+        writer = {"pid": os.getpid(), "host": socket.gethostname(), "since": utc_now()}
+        try:
+            atomic_write_bytes(self.path / WRITER, json.dumps(writer).encode())
+        except OSError:
+            pass  # who holds the lock is a courtesy for the message above; the lock itself is what counts
+
+    def _writer(self) -> str:
+        try:
+            who = json.loads((self.path / WRITER).read_text())
+            return f"process {who['pid']} on {who['host']} since {who['since']}"
+        except (OSError, ValueError, KeyError, TypeError):
+            return "another process"
+
+    def unlock(self) -> None:
+        if self._lock is not None:
+            (self.path / WRITER).unlink(missing_ok=True)
+            self._lock.release()
+            self._lock = None
 
     # -- run.json ------------------------------------------------------------------------------
     @property
     def meta(self) -> dict[str, Any]:
         try:
-            return json.loads((self.path / RUN_JSON).read_text())
+            meta = json.loads((self.path / RUN_JSON).read_text())
         except (OSError, ValueError) as exc:
             raise RunDirectoryError(f"cannot read {self.path / RUN_JSON}: {exc}") from None
+        if not isinstance(meta, dict):
+            raise RunDirectoryError(f"{self.path / RUN_JSON} is not a JSON object")
+        return meta
 
     def write_meta(self, meta: Mapping[str, Any]) -> None:
         atomic_write_bytes(self.path / RUN_JSON, (json.dumps(meta, indent=2, default=str) + "\n").encode())
 
     def update_meta(self, **changes: Any) -> None:
-        self.write_meta({**self.meta, **changes})
+        """Change fields of run.json; on a full disk, overwrite it in place (it needs no new blocks)."""
+        data = (json.dumps({**self.meta, **changes}, indent=2, default=str) + "\n").encode()
+        try:
+            atomic_write_bytes(self.path / RUN_JSON, data)
+        except OSError as exc:
+            if not no_space(exc):
+                raise
+            with open(self.path / RUN_JSON, "r+b") as fh:
+                fh.write(data)
+                fh.truncate()
+                fh.flush()
+                os.fsync(fh.fileno())
 
     # -- evaluations ---------------------------------------------------------------------------
     @property
     def evaluations_path(self) -> Path:
         return self.path / EVALUATIONS
 
-    def trial_name(self, label: str, seed: int) -> str:
-        return f"{re.sub(r'[^A-Za-z0-9_.=-]+', '_', label)}-seed{seed}"
-
     def _read(self, path: Path) -> pd.DataFrame:
         try:
             frame = pd.read_parquet(path)
+        except FileNotFoundError:
+            raise
         except Exception as exc:  # noqa: BLE001 - pyarrow raises several types for corrupt files
             raise RunDirectoryError(f"cannot read {path}: {type(exc).__name__}: {exc}") from None
         missing = [c for c in REQUIRED_COLUMNS if c not in frame.columns]
@@ -187,11 +297,14 @@ class RunDirectory:
         return frame
 
     def _finished(self) -> pd.DataFrame | None:
-        return self._read(self.evaluations_path) if self.evaluations_path.exists() else None
+        try:
+            return self._read(self.evaluations_path)
+        except FileNotFoundError:
+            return None
 
-    def pending_rows(self, label: str, seed: int, before_generation: int | None = None) -> pd.DataFrame | None:
-        """Rows of an unfinished (designer, seed) run; generation files from ``before_generation`` on are deleted."""
-        folder = self.path / PENDING / self.trial_name(label, seed)
+    def pending_rows(self, name: str, before_generation: int | None = None) -> pd.DataFrame | None:
+        """Rows of an unfinished trial; generation files from ``before_generation`` on are deleted."""
+        folder = self.path / PENDING / name
         frames = []
         for file in sorted(folder.glob("gen-*.parquet")):
             if before_generation is not None and int(file.stem[4:]) >= before_generation:
@@ -201,74 +314,79 @@ class RunDirectory:
         return pd.concat(frames, ignore_index=True) if frames else None
 
     def load_evaluations(self) -> pd.DataFrame:
-        """All rows: finished (designer, seed) runs, then those still pending."""
-        finished = self._finished()
-        frames = [] if finished is None else [finished]
-        done = set() if finished is None else set(zip(finished["designer"], finished["seed"]))
+        """All rows: finished trials, then those still pending; a consistent snapshot even mid-run."""
+        for _ in range(READ_ATTEMPTS):
+            try:
+                return self._snapshot()
+            except FileNotFoundError:
+                continue  # a trial was merged (its pending files removed) while we read: read again
+        raise RunDirectoryError(f"{self.path} kept changing while it was read; try again")
+
+    def _snapshot(self) -> pd.DataFrame:
+        # pending files first: a trial merged meanwhile then shows up in the finished table too, and
+        # its pending copy is dropped below, instead of being missed by both reads
+        pending = []
         for folder in sorted((self.path / PENDING).glob("*")):
             files = sorted(folder.glob("gen-*.parquet"))
-            if not files:
-                continue
-            first = self._read(files[0])
-            if (first["designer"].iloc[0], first["seed"].iloc[0]) in done:
-                continue  # merged already; the folder outlived a kill during clean-up
-            frames += [first, *(self._read(f) for f in files[1:])]
+            if files:
+                pending.append(pd.concat([self._read(f) for f in files], ignore_index=True))
+        finished = self._finished()
+        frames = [] if finished is None else [finished]
+        done = set() if finished is None else set(finished[TRIAL_KEY].itertuples(index=False, name=None))
+        frames += [f for f in pending if tuple(f[TRIAL_KEY].iloc[0]) not in done]
         if not frames:
             return pd.DataFrame({c: pd.Series(dtype=object) for c in COLUMNS})
         return _core_first(pd.concat(frames, ignore_index=True))
 
-    def append_generation(self, label: str, seed: int, generation: int, rows: list[Mapping[str, Any]]) -> None:
-        """Write one generation's rows of an unfinished (designer, seed) run."""
+    def append_generation(self, name: str, generation: int, rows: list[Mapping[str, Any]]) -> None:
+        """Write one generation's rows of an unfinished trial."""
         frame = _core_first(pd.DataFrame.from_records(rows))
-        path = self.path / PENDING / self.trial_name(label, seed) / f"gen-{generation:06d}.parquet"
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.tmp")
-        frame.to_parquet(tmp, index=False)
-        os.replace(tmp, path)
+        atomic_write_bytes(self.path / PENDING / name / f"gen-{generation:06d}.parquet", parquet_bytes(frame))
 
-    def is_finished(self, label: str, seed: int) -> bool:
-        """True once the (designer, seed) run's rows were merged into evaluations.parquet."""
+    def finished_trials(self) -> set[tuple[str, str, int]]:
+        """(env, designer, seed) of every trial merged into evaluations.parquet."""
         if not self.evaluations_path.exists():
-            return False
-        keys = pd.read_parquet(self.evaluations_path, columns=["designer", "seed"]).drop_duplicates()
-        return bool(((keys["designer"] == label) & (keys["seed"] == seed)).any())
+            return set()
+        keys = pd.read_parquet(self.evaluations_path, columns=TRIAL_KEY).drop_duplicates()
+        return {(str(e), str(d), int(s)) for e, d, s in keys.itertuples(index=False, name=None)}
 
-    def finish_trial(self, label: str, seed: int) -> None:
-        """Merge a finished (designer, seed) run's pending rows into evaluations.parquet.
+    def finish_trial(self, name: str, order: Callable[[tuple[str, str, int]], int]) -> None:
+        """Merge a finished trial's pending rows into evaluations.parquet, trials sorted by ``order``.
 
-        Its checkpoint is deleted afterwards: the merged rows are what marks the run finished.
+        Its checkpoint is deleted afterwards: the merged rows are what marks the trial finished,
+        and the table is the same whichever trials finished first.
         """
-        rows = self.pending_rows(label, seed)
+        rows = self.pending_rows(name)
         if rows is not None:
             finished = self._finished()
             merged = rows if finished is None else pd.concat([finished, rows], ignore_index=True)
-            tmp = self.evaluations_path.with_name(f".{EVALUATIONS}.tmp")
-            _core_first(merged).to_parquet(tmp, index=False)
-            os.replace(tmp, self.evaluations_path)
-        shutil.rmtree(self.path / PENDING / self.trial_name(label, seed), ignore_errors=True)
-        self.checkpoint_path(label, seed).unlink(missing_ok=True)
+            position = [order((str(e), str(d), int(s))) for e, d, s in merged[TRIAL_KEY].itertuples(index=False, name=None)]
+            merged = merged.iloc[sorted(range(len(merged)), key=position.__getitem__)].reset_index(drop=True)
+            atomic_write_bytes(self.evaluations_path, parquet_bytes(_core_first(merged)))
+        shutil.rmtree(self.path / PENDING / name, ignore_errors=True)
+        self.checkpoint_path(name).unlink(missing_ok=True)
         for folder in (self.path / PENDING, self.path / CHECKPOINTS):
             if folder.is_dir() and not any(folder.iterdir()):
                 folder.rmdir()
 
     # -- checkpoints ---------------------------------------------------------------------------
-    def checkpoint_path(self, label: str, seed: int) -> Path:
-        return self.path / CHECKPOINTS / f"{self.trial_name(label, seed)}.pkl"
+    def checkpoint_path(self, name: str) -> Path:
+        return self.path / CHECKPOINTS / f"{name}.pkl"
 
-    def save_checkpoint(self, label: str, seed: int, checkpoint: Checkpoint) -> None:
-        atomic_write_bytes(self.checkpoint_path(label, seed), pickle.dumps(checkpoint))
+    def save_checkpoint(self, name: str, data: bytes) -> None:
+        atomic_write_bytes(self.checkpoint_path(name), data)
 
-    def load_checkpoint(self, label: str, seed: int) -> Checkpoint | None:
-        path = self.checkpoint_path(label, seed)
-        if not path.exists():
-            return None
-        try:
-            return pickle.loads(path.read_bytes())
-        except Exception as exc:  # noqa: BLE001
-            raise RunDirectoryError(f"cannot restore checkpoint {path}: {type(exc).__name__}: {exc}") from None
+    def load_checkpoint(self, name: str) -> bytes | None:
+        path = self.checkpoint_path(name)
+        return path.read_bytes() if path.exists() else None
+
+    def artifacts(self, name: str) -> Path:
+        """Where a trial's evaluations may keep files (e.g. trained policies), one folder per body."""
+        return self.path / "artifacts" / name
 
 
 def _core_first(frame: pd.DataFrame) -> pd.DataFrame:
-    """Core columns in their documented order, then designer/environment extras."""
+    """Core columns in their documented order, then designer/environment extras by name (so the
+    table's columns do not depend on which trial finished first)."""
     core = [c for c in COLUMNS if c in frame.columns]
-    return frame[core + [c for c in frame.columns if c not in COLUMNS]]
+    return frame[core + sorted(c for c in frame.columns if c not in COLUMNS)]

@@ -41,8 +41,9 @@ class Factory:
     def key(self) -> str:
         return repr((self.factory, self.params))
 
-    def build(self) -> Any:
-        return _load(self.factory, "factory", "factory")(**dict(self.params))
+    def build(self, **harness: Any) -> Any:
+        """Call the factory with its parameters (and what the harness adds, e.g. a designer's seed)."""
+        return _load(self.factory, "factory", "factory")(**harness, **dict(self.params))
 
 
 @dataclass(frozen=True)

@@ -72,7 +72,7 @@ def measure(case: Case, workdir: Path) -> dict:
     """Run the case and return its key figures: best reward after each checkpoint, per seed and median."""
     experiment = Experiment(
         designers=(PluginChoice(case.designer, {}, case.designer),),
-        env=PluginChoice(case.env, {}, case.env),
+        envs=PluginChoice(case.env, {}, case.env),
         budget=case.budget,
         seeds=case.seeds,
     )

@@ -33,7 +33,7 @@ def test_compare_writes_run_and_prints_summary(tmp_path):
     out = tmp_path / "run"
     result = invoke("compare", "--designers", "ga,random", "--env", "simple", "--seeds", "0,1", "--budget", "100", "--out", str(out), "-q")
     assert result.exit_code == 0, result.stderr
-    assert "summary" in result.stdout and "ga" in result.stdout and "seeds reaching 100" in result.stdout
+    assert "summary" in result.stdout and "ga" in result.stdout and "hit 100" in result.stdout
     df = pd.read_parquet(out / "evaluations.parquet")
     assert set(df["designer"]) == {"ga", "random"} and set(df["seed"]) == {0, 1}
     assert (df.groupby(["designer", "seed"])["n_evals"].max() == 100).all()
@@ -41,6 +41,15 @@ def test_compare_writes_run_and_prints_summary(tmp_path):
     assert meta["status"] == "complete" and meta["config"]["budget"] == 100
     report = invoke("report", str(out))
     assert report.exit_code == 0 and "random" in report.stdout
+
+
+def test_the_summary_fits_an_80_column_terminal(tmp_path):
+    result = runner.invoke(app, ["compare", "-d", "ga[survivors=5],cppn,random", "--budget", "50", "--out", str(tmp_path / "r"), "-q", "--no-report"],
+                           env={"COLUMNS": "80"})
+    assert result.exit_code == 0, result.stderr
+    table = [line for line in result.stdout.splitlines() if "│" in line or "┃" in line]
+    assert len(table) == 4 and all(len(line) <= 80 for line in table)
+    assert "…" not in result.stdout and "evals to 100" in result.stdout and "ga[survivors=5]" in result.stdout
 
 
 def test_run_with_designer_params_and_repetitions(tmp_path):
@@ -67,7 +76,7 @@ def test_evaluate_scores_one_body():
     [
         (["compare", "--designers", "ga,nope"], "unknown designer 'nope'; known designers:"),
         (["compare", "--designers", "ga", "--env", "nope"], "unknown environment 'nope'"),
-        (["compare", "--designers", "ga", "--population", "0"], "population must be at least 1"),
+        (["compare", "--designers", "ga", "--population", "0"], "population must be an integer from 1 to 10,000, got 0"),
         (["compare", "--designers", "ga", "--budget", "10"], "budget (10) must be at least the population (25)"),
         (["compare", "--designers", "ga", "-D", "survivors=40"], "survivors must be between 1 and population - 1"),
         (["compare", "--designers", "ga", "--seeds", "a,b"], "malformed seeds"),
@@ -95,17 +104,11 @@ def test_report_on_non_run_directory(tmp_path):
 
 def test_resume_continues_a_killed_run(tmp_path):
     from gdabench import Experiment, PluginChoice, compare
+    from listeners import KillAt, Killed
 
-    class Killed(Exception):
-        pass
-
-    def kill(report):
-        if report.designer == "random" and report.generation == 2:
-            raise Killed
-
-    exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), env=PluginChoice("simple"), budget=100)
+    exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), envs=PluginChoice("simple"), budget=100)
     with pytest.raises(Killed):
-        compare(exp, tmp_path / "run", on_generation=kill)
+        compare(exp, tmp_path / "run", listener=KillAt("random", 0, 2))
     assert json.loads((tmp_path / "run" / "run.json").read_text())["status"] == "failed"
     result = invoke("compare", "--resume", str(tmp_path / "run"), "-q")
     assert result.exit_code == 0, result.stderr

@@ -24,6 +24,7 @@ from gdabench.designers.cppn.config import load_config, shipped_config_text
 from gdabench.envs.simple import SumOfVoxels
 from gdabench.errors import ConfigError
 from gdabench.plugins import Registry
+from gdabench.execution import Execution
 from gdabench.runner import compare
 from gdabench.specs import DesignerSpec
 from gdabench.testing import check_designer
@@ -178,7 +179,7 @@ def test_cppn_paints_bodies_as_evolution_gym_does():
 
 # -- ask/tell --------------------------------------------------------------------------------------
 def test_run_bodies_are_valid_unique_and_carry_extras(tmp_path):
-    experiment = Experiment(designers=(PluginChoice("cppn"),), env=PluginChoice("simple"), budget=200, seeds=(0,))
+    experiment = Experiment(designers=(PluginChoice("cppn"),), envs=PluginChoice("simple"), budget=200, seeds=(0,))
     frame = compare(experiment, tmp_path / "run", command=["test"]).load_evaluations()
     assert len(frame) == 200
     assert (frame["status"] == "ok").all()
@@ -260,7 +261,7 @@ def test_a_cppn_run_in_between_changes_no_other_designer(tmp_path):
     def rows(names: list[str], out: Path):
         experiment = Experiment(tuple(PluginChoice(n) for n in names), PluginChoice("simple"), budget=75, seeds=(0, 1))
         random.seed(11)
-        frame = compare(experiment, out, command=["test"], reg=reg).load_evaluations()
+        frame = compare(experiment, out, command=["test"], reg=reg, execution=Execution(jobs=1)).load_evaluations()  # one process
         frame = frame[frame["designer"] != "cppn"]
         return frame[["designer", "seed", "generation", "index", "body", "reward"]].reset_index(drop=True)
 

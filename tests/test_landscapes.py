@@ -281,7 +281,7 @@ def test_cli_reports_bad_landscape_parameters_in_one_line(env, extra, message, t
 def test_summary_reports_evaluations_to_the_nk_optimum(tmp_path):
     """On a 2x3 body (15,625 bodies) the GA finds the exact optimum, and the summary says when."""
     experiment = Experiment(
-        designers=(PluginChoice("ga"),), env=PluginChoice("nk", {"k": 1}, "nk[k=1]"), shape=(2, 3), population=10, budget=300, seeds=(0, 1)
+        designers=(PluginChoice("ga"),), envs=PluginChoice("nk", {"k": 1}, "nk[k=1]"), shape=(2, 3), population=10, budget=300, seeds=(0, 1)
     )
     run = compare(experiment, tmp_path / "run")
     optimum = make_env("nk", shape=(2, 3), k=1).optimum

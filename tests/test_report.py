@@ -25,7 +25,8 @@ from gdabench.report.bodies import COLOURS, body_image
 from gdabench.report.build import write_report
 from gdabench.report.diversity import categorize, body_matrix
 from gdabench.report.stats import best_so_far_curve, bootstrap_ci, censored_median
-from gdabench.runner import compare
+from gdabench.execution import Execution
+from gdabench.runner import RunListener, compare
 from gdabench.seeding import evaluation_seed
 
 DESIGNERS = ("ga", "random")
@@ -37,7 +38,7 @@ COUNTED = ["ok", "error", "timeout"]
 def _experiment(designers=DESIGNERS, env="simple", seeds=SEEDS, budget=BUDGET) -> Experiment:
     return Experiment(
         designers=tuple(PluginChoice(d, {}, d) for d in designers),
-        env=PluginChoice(env, {}, env),
+        envs=PluginChoice(env, {}, env),
         budget=budget,
         seeds=tuple(seeds),
     )
@@ -333,14 +334,16 @@ def test_report_of_a_run_while_it_runs_and_after_it_failed(tmp_path):
     """Rows of unfinished (designer, seed) runs are reported too, with notes saying what is missing."""
     peeked = {}
 
-    def peek_then_fail(report):
-        if (report.designer, report.seed, report.generation) == ("random", 0, 1):
-            peeked["report"] = write_report(tmp_path / "run", tmp_path / "mid")  # ga seed 0 done, random seed 0 half-way
-        if (report.designer, report.seed, report.generation) == ("ga", 1, 2):
-            raise KeyboardInterrupt
+    class PeekThenFail(RunListener):
+        def generation(self, spec, result):
+            where = (spec.designer.label, spec.seed, result.generation)
+            if where == ("random", 0, 1):
+                peeked["report"] = write_report(tmp_path / "run", tmp_path / "mid")  # ga seed 0 done, random seed 0 half-way
+            if where == ("ga", 1, 2):
+                raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        compare(_experiment(), tmp_path / "run", on_generation=peek_then_fail)
+        compare(_experiment(), tmp_path / "run", execution=Execution(jobs=1), listener=PeekThenFail())
     mid = peeked["report"]
     assert any("status is 'running'" in n for n in mid.notes)
     assert "random seed 0: 50 of 100 evaluations" in mid.notes

@@ -19,18 +19,19 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
 from gdabench import Experiment, PluginChoice, compare
 from gdabench.body import Body
-from gdabench.cache import EvaluationCache
 from gdabench.errors import ConfigError
-from gdabench.evaluation import OK, EvalOutcome, EvalTask
-from gdabench.executors import make_executor
+from gdabench.execution import OK, EvalOutcome, EvalTask, Execution, make_executor
+from gdabench.execution.cache import EvaluationCache
 from gdabench.plugins import Registry
 from gdabench.results import RunDirectory
 from gdabench.specs import Factory
+from listeners import KillAt, Killed
 
 FIXTURE = Path(__file__).parent / "fixtures" / "faulty_plugin"
 #: columns that legitimately differ between two runs of the same command
@@ -82,14 +83,36 @@ def voxel_sum(text: str) -> float:
 
 
 # -- executors agree --------------------------------------------------------------------------
-def test_same_bodies_and_rewards_with_every_executor(tmp_path, ray_cluster):
-    exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), env=PluginChoice("simple"), budget=75, seeds=(0, 1))
-    serial = compare(exp, tmp_path / "serial")
-    assert serial.meta["execution"]["executor"] == "serial"
+def _noisy_expected(frame: pd.DataFrame) -> pd.Series:
+    """``noisy``'s reward computed here from the run seed and the body hash alone (seeding's contract)."""
+    import numpy as np
+
+    def reward(row) -> float:
+        seed = np.random.SeedSequence(int(row.seed), spawn_key=(1, int(row.body_hash, 16))).generate_state(1, dtype=np.uint32)[0]
+        return voxel_sum(row.body) + float(np.random.default_rng(int(seed)).normal())
+
+    return frame.apply(reward, axis=1)
+
+
+def test_same_table_with_every_executor_on_an_environment_that_uses_its_seed(tmp_path, reg, ray_cluster):
+    """Serial, trials in parallel, evaluations in parallel, Ray: one table, rewards from (seed, body) alone."""
+    exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), envs=PluginChoice("noisy"), budget=75, seeds=(0, 1))
+    serial = compare(exp, tmp_path / "serial", reg=reg, execution=Execution(jobs=1))
+    assert serial.meta["execution"] == Execution(jobs=1).to_json()
     reference = table(tmp_path / "serial")
-    for name, options in {"process": dict(workers=2), "ray": dict(executor="ray", workers=2)}.items():
-        run = compare(exp, tmp_path / name, **options)
-        assert run.meta["execution"] == {"executor": name, "workers": 2, "timeout": None, "ray_address": None, "cache": None}
+    ok = reference[reference["status"] == "ok"]
+    assert np.allclose(ok["reward"], _noisy_expected(ok))
+    same_body = ok.groupby(["seed", "body_hash"])["reward"].nunique()
+    assert (same_body == 1).all()  # a body scores the same whichever designer found it
+    options = {
+        "trials in parallel": Execution(jobs=2),
+        "evaluations in parallel": Execution(jobs=1, workers=2),
+        "both": Execution(jobs=2, workers=2),
+        "ray": Execution("ray", jobs=2),
+        "ray with evaluation actors": Execution("ray", jobs=1, workers=2),
+    }
+    for name, execution in options.items():
+        compare(exp, tmp_path / name, reg=reg, execution=execution)
         pd.testing.assert_frame_equal(table(tmp_path / name), reference, obj=name)
 
 
@@ -108,10 +131,10 @@ EXPECTED = {
 @pytest.fixture
 def faulty_experiment(tmp_path, reg):
     """A GA run on `faulty` whose first generation holds one body for each kind of fault."""
-    plain = Experiment(designers=(PluginChoice("ga"),), env=PluginChoice("faulty"), population=10, budget=30)
+    plain = Experiment(designers=(PluginChoice("ga"),), envs=PluginChoice("faulty"), population=10, budget=30)
     first = compare(plain, tmp_path / "plain", reg=reg).load_evaluations().query("generation == 0")["body"].tolist()
     params = {fault: [first[i]] for fault, i in FAULTS.items()} | {"record_pid": True}
-    return Experiment(designers=(PluginChoice("ga"),), env=PluginChoice("faulty", params), population=10, budget=30), first
+    return Experiment(designers=(PluginChoice("ga"),), envs=PluginChoice("faulty", params), population=10, budget=30), first
 
 
 def check_faults(frame: pd.DataFrame, first: list[str]) -> None:
@@ -130,14 +153,14 @@ def check_faults(frame: pd.DataFrame, first: list[str]) -> None:
 
 def test_faults_are_recorded_and_the_run_goes_on(tmp_path, reg, faulty_experiment):
     exp, first = faulty_experiment
-    run = compare(exp, tmp_path / "process", reg=reg, workers=2, timeout=2)
+    run = compare(exp, tmp_path / "process", reg=reg, execution=Execution(workers=2, timeout=2))
     assert run.meta["status"] == "complete"
     frame = run.load_evaluations()
     check_faults(frame, first)
     assert frame[frame["generation"] == 0]["pid"].nunique() >= 2  # bodies of one generation ran in parallel
-    # serial with a timeout: one worker process, replaced after each hang or death
-    serial = compare(exp, tmp_path / "serial", reg=reg, timeout=2)
-    assert serial.meta["execution"]["executor"] == "serial" and serial.meta["status"] == "complete"
+    # one worker with a timeout: one worker process, replaced after each hang or death
+    serial = compare(exp, tmp_path / "serial", reg=reg, execution=Execution(timeout=2))
+    assert serial.meta["execution"]["workers"] == 1 and serial.meta["status"] == "complete"
     assert os.getpid() not in set(serial.load_evaluations()["pid"].dropna())
     # the same table: no outcome depends on which other evaluations failed, or where
     pd.testing.assert_frame_equal(table(tmp_path / "serial", drop=["pid"]), table(tmp_path / "process", drop=["pid"]))
@@ -145,13 +168,13 @@ def test_faults_are_recorded_and_the_run_goes_on(tmp_path, reg, faulty_experimen
 
 def test_faults_on_ray(tmp_path, reg, faulty_experiment, ray_cluster):
     exp, first = faulty_experiment
-    run = compare(exp, tmp_path / "run", reg=reg, executor="ray", workers=2, timeout=2)
+    run = compare(exp, tmp_path / "run", reg=reg, execution=Execution("ray", workers=2, timeout=2))
     assert run.meta["status"] == "complete" and run.meta["execution"]["timeout"] == 2
     check_faults(run.load_evaluations(), first)
 
 
 def test_serial_without_timeout_evaluates_in_the_driver(tmp_path, reg):
-    exp = Experiment(designers=(PluginChoice("random"),), env=PluginChoice("faulty", {"record_pid": True}), population=5, budget=5)
+    exp = Experiment(designers=(PluginChoice("random"),), envs=PluginChoice("faulty", {"record_pid": True}), population=5, budget=5)
     frame = compare(exp, tmp_path / "run", reg=reg).load_evaluations()
     assert set(frame["pid"]) == {os.getpid()}
 
@@ -161,7 +184,7 @@ def test_dead_worker_is_replaced_and_others_keep_their_results(reg):
     texts = ["33/00", "44/00", "34/00", "43/00", "30/30", "40/40"]
     env = Factory.of("gdabench_faulty.envs:Faulty", {"shape": (2, 2), "exit_on": ["34/00"], "record_pid": True})
     tasks = [EvalTask(Body.from_text(t), 0, env) for t in texts]
-    with make_executor("process", 2, warm=[env]) as executor:
+    with make_executor(Execution(workers=2), warm=[env]) as executor:
         outcomes = executor.map(tasks)
         workers = [slot.worker.process for slot in executor._pool.slots]
         assert len(workers) == 2 and all(w.is_alive() for w in workers)  # the dead one was replaced
@@ -211,7 +234,7 @@ def test_sigkilled_run_resumes_to_the_uninterrupted_table(tmp_path, faulty_site)
     """A real `gdabench compare` with two workers is SIGKILLed halfway, then resumed serially."""
     out = tmp_path / "killed"
     args = ["compare", "-d", "ga,random", "--env", "faulty", "--budget", "100", "--seeds", "0,1", "-q", "--no-report"]
-    proc = cli(*args, "--workers", "2", "--out", str(out), site=faulty_site, env={"GDABENCH_FAULTY_DELAY": "0.05"}, background=True)
+    proc = cli(*args, "--jobs", "2", "--workers", "2", "--out", str(out), site=faulty_site, env={"GDABENCH_FAULTY_DELAY": "0.05"}, background=True)
     deadline, workers = time.monotonic() + 120, set()
     try:
         # halfway: the first (designer, seed) run is merged and the second has two generations on disk
@@ -233,34 +256,34 @@ def test_sigkilled_run_resumes_to_the_uninterrupted_table(tmp_path, faulty_site)
     assert not any(_alive(p) for p in workers), "worker processes outlived the killed run"
     assert RunDirectory.open(out).meta["status"] == "running"  # as the kill left it
 
-    resumed = cli("compare", "--resume", str(out), "-q", "--no-report", site=faulty_site)
+    resumed = cli("compare", "--resume", str(out), "-q", "--no-report", "--jobs", "1", site=faulty_site)
     assert resumed.returncode == 0, resumed.stderr
-    reference = cli(*args, "--out", str(tmp_path / "reference"), site=faulty_site)
+    reference = cli(*args, "--jobs", "1", "--out", str(tmp_path / "reference"), site=faulty_site)
     assert reference.returncode == 0, reference.stderr
     got, want = table(out), table(tmp_path / "reference")
     assert len(got) == 400 and not got.duplicated(["designer", "seed", "generation", "index"]).any()
     pd.testing.assert_frame_equal(got, want)
     meta = RunDirectory.open(out).meta
-    assert meta["status"] == "complete" and meta["execution"]["executor"] == "process" and meta["resumed"][-1]["executor"] == "serial"
+    assert meta["status"] == "complete" and meta["execution"]["jobs"] == 2 and meta["resumed"][-1]["jobs"] == 1
     assert not (out / "pending").exists() and not (out / "checkpoints").exists()
 
 
 # -- evaluation cache ---------------------------------------------------------------------------
 def test_cache_hits_across_runs_and_counts_them_as_evaluations(tmp_path, reg):
     cache = tmp_path / "cache"
-    exp = Experiment(designers=(PluginChoice("ga"),), env=PluginChoice("faulty"), budget=60, seeds=(0,))
-    first = compare(exp, tmp_path / "first", reg=reg, cache=cache)
+    exp = Experiment(designers=(PluginChoice("ga"),), envs=PluginChoice("faulty"), budget=60, seeds=(0,))
+    first = compare(exp, tmp_path / "first", reg=reg, execution=Execution(cache=str(cache)))
     assert first.meta["execution"]["cache"] == str(cache)
     a = first.load_evaluations()
     assert not a["cached"].any()
     ok = a[a["status"] == "ok"]
     assert len(list(cache.rglob("*.json"))) == ok["body_hash"].nunique() == 60
-    second = compare(exp, tmp_path / "second", reg=reg, cache=cache, workers=2).load_evaluations()
+    second = compare(exp, tmp_path / "second", reg=reg, execution=Execution(cache=str(cache), workers=2)).load_evaluations()
     assert second["cached"].tolist() == (second["status"] == "ok").tolist()
     assert second.loc[second["cached"], "eval_seconds"].eq(0).all()
     pd.testing.assert_frame_equal(table(tmp_path / "second", drop=["cached"]), table(tmp_path / "first", drop=["cached"]))
     # another seed gives other evaluation seeds: nothing to reuse, even for bodies seen before
-    other = compare(Experiment(exp.designers, exp.env, budget=60, seeds=(1,)), tmp_path / "other", reg=reg, cache=cache).load_evaluations()
+    other = compare(Experiment(exp.designers, exp.envs, budget=60, seeds=(1,)), tmp_path / "other", reg=reg, execution=Execution(cache=str(cache))).load_evaluations()
     assert not other["cached"].any() and len(list(cache.rglob("*.json"))) == 120
 
 
@@ -279,11 +302,11 @@ def test_cache_skips_failures_and_nondeterministic_environments(tmp_path, reg, f
     (tmp_path / "file").touch()
     with pytest.raises(ConfigError, match="cannot use .*file as the evaluation cache"):
         EvaluationCache(tmp_path / "file", {})
-    exp = Experiment(designers=(PluginChoice("random"),), env=PluginChoice("noisy"), budget=25)
+    exp = Experiment(designers=(PluginChoice("random"),), envs=PluginChoice("noisy"), budget=25)
     result = cli("compare", "-d", "random", "--env", "noisy", "--budget", "25", "-q", "--no-report", "--cache", str(tmp_path / "c2"), "--out", str(tmp_path / "run"), site=faulty_site)
     assert result.returncode == 0, result.stderr
     assert "not deterministic; the evaluation cache was not used" in result.stderr
-    assert not (tmp_path / "c2").exists() and not compare(exp, tmp_path / "api", reg=reg, cache=tmp_path / "c2").load_evaluations()["cached"].any()
+    assert not (tmp_path / "c2").exists() and not compare(exp, tmp_path / "api", reg=reg, execution=Execution(cache=str(tmp_path / "c2"))).load_evaluations()["cached"].any()
 
 
 def _hammer(root: str, worker: int) -> list[float]:
@@ -310,11 +333,11 @@ def test_cache_is_safe_with_concurrent_writers(tmp_path):
 @pytest.mark.parametrize(
     "options, fragment",
     [
-        (["--executor", "threads"], "unknown executor 'threads'; known executors: serial, process, ray"),
+        (["--executor", "threads"], "unknown executor 'threads'; known executors: local, ray"),
         (["--timeout", "0"], "timeout must be a positive number of seconds"),
         (["--ray-address", "auto"], "--ray-address needs --executor ray"),
-        (["--executor", "serial", "--workers", "2"], "serial executor runs one evaluation at a time"),
-        (["--workers", "0"], "workers must be at least 1"),
+        (["--jobs", "0"], "jobs must be a positive integer, got 0"),
+        (["--workers", "0"], "workers must be a positive integer, got 0"),
     ],
 )
 def test_bad_execution_options_are_one_line(tmp_path, options, fragment):
@@ -332,23 +355,16 @@ def test_bad_execution_options_are_one_line(tmp_path, options, fragment):
 def test_ray_executor_without_ray_says_how_to_install(monkeypatch):
     monkeypatch.setitem(sys.modules, "ray", None)  # as if ray were not installed
     with pytest.raises(ConfigError, match=r"needs Ray: pip install 'gdabench\[ray\]'"):
-        make_executor("ray", 2)
+        make_executor(Execution("ray", workers=2))
 
 
 def test_resume_keeps_the_timeout_and_records_each_execution(tmp_path, reg):
-    exp = Experiment(designers=(PluginChoice("random"),), env=PluginChoice("faulty"), population=5, budget=20)
+    exp = Experiment(designers=(PluginChoice("random"),), envs=PluginChoice("faulty"), population=5, budget=20)
 
-    class Stop(Exception):
-        pass
-
-    def stop(report):
-        if report.generation == 1:
-            raise Stop
-
-    with pytest.raises(Stop):
-        compare(exp, tmp_path / "run", reg=reg, timeout=30, on_generation=stop)
-    run = compare(None, tmp_path / "run", resume=True, reg=reg, workers=2)
+    with pytest.raises(Killed):
+        compare(exp, tmp_path / "run", reg=reg, execution=Execution(timeout=30), listener=KillAt("random", 0, 1))
+    run = compare(None, tmp_path / "run", resume=True, reg=reg, execution=Execution(workers=2))
     meta = json.loads((tmp_path / "run" / "run.json").read_text())
-    assert meta["execution"]["timeout"] == 30 and meta["execution"]["executor"] == "serial"
-    assert meta["resumed"][-1]["timeout"] == 30 and meta["resumed"][-1]["executor"] == "process"
+    assert meta["execution"]["timeout"] == 30 and meta["execution"]["workers"] == 1
+    assert meta["resumed"][-1]["timeout"] == 30 and meta["resumed"][-1]["workers"] == 2
     assert run.meta["status"] == "complete" and len(run.load_evaluations()) == 20

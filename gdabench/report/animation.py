@@ -1,8 +1,9 @@
 """Animations of a body acting, through the environment's ``render_frames`` hook.
 
-The report rebuilds the run's environment (and controller) from ``run.json`` and asks it for
-frames of a body, passing the same evaluation seed and work directory the run used, so a
-controller that saved its trained policy there can replay it.  Environments with nothing to show
+The report rebuilds the run's environment (and controller) from ``run.json`` through its
+:class:`~gdabench.plan.Plan` and asks it for frames of a body, passing the same evaluation seed
+and work directory the run used, so a controller that saved its trained policy there can
+replay it.  Environments with nothing to show
 (``simple``) return None and get no animation.
 """
 
@@ -16,30 +17,13 @@ import numpy as np
 from PIL import Image
 
 from ..body import Body
-from ..config import Experiment
 from ..environment import Controller, Environment
 from ..errors import GdabenchError
-from ..plugins import Registry
-from ..results import RunDirectory
 from ..seeding import evaluation_seed
 
 FPS = 20
 MAX_FRAMES = 100
 MAX_WIDTH = 400
-
-
-def build_scorers(experiment: Experiment, reg: Registry) -> tuple[Environment, Controller | None]:
-    """The run's environment and controller, built as the runner built them."""
-    env = reg.get("environment", experiment.env.name).spec.create(shape=tuple(experiment.shape), **experiment.env.params)
-    controller = None
-    if experiment.controller is not None:
-        controller = reg.get("controller", experiment.controller.name).spec.create(**experiment.controller.params)
-    return env, controller
-
-
-def evaluation_workdir(run: RunDirectory, designer: str, seed: int, body: Body) -> Path:
-    """Where the runner let the environment keep artifacts of this body's evaluation."""
-    return run.path / "artifacts" / run.checkpoint_path(designer, seed).stem / body.hash
 
 
 def frames_to_gif(frames: Sequence[Any], *, fps: int = FPS, max_frames: int = MAX_FRAMES, max_width: int = MAX_WIDTH) -> bytes:
@@ -62,14 +46,10 @@ def frames_to_gif(frames: Sequence[Any], *, fps: int = FPS, max_frames: int = MA
     return buffer.getvalue()
 
 
-def animate(
-    env: Environment, controller: Controller | None, body: Body, *, run: RunDirectory, designer: str, seed: int
-) -> bytes | None:
-    """A GIF of ``body`` acting in ``env`` as it did in the run, or None if the env shows nothing."""
-    frames = env.render_frames(
-        body,
-        seed=evaluation_seed(seed, body.hash),
-        controller=controller,
-        workdir=evaluation_workdir(run, designer, seed, body),
-    )
+def animate(env: Environment, controller: Controller | None, body: Body, *, seed: int, workdir: Path) -> bytes | None:
+    """A GIF of ``body`` acting in ``env`` as it did in the trial with this seed, or None if the env shows nothing.
+
+    ``workdir`` is the directory the body's evaluation used (see :meth:`gdabench.plan.Plan.workdir`).
+    """
+    frames = env.render_frames(body, seed=evaluation_seed(seed, body.hash), controller=controller, workdir=workdir)
     return None if frames is None else frames_to_gif(frames)

@@ -30,17 +30,18 @@ import pandas as pd
 from ..body import Body
 from ..config import Experiment
 from ..errors import ConfigError, GdabenchError, RunDirectoryError
-from ..evaluation import COUNTED, OK
+from ..execution.evaluation import COUNTED, OK
+from ..plan import Plan
 from ..plugins import Registry, registry
 from ..results import RunDirectory, atomic_write_bytes
-from ..summary import per_run, summarize
 from . import plots
-from .animation import animate, build_scorers
+from .animation import animate
 from .bodies import bodies_figure
 from .content import Figure, Report, Section
 from .diversity import NEAR_COPY, SURVIVORS, diversity
 from .html import render_html
 from .markdown import render_markdown
+from .summary import failure_counts, per_run, summarize
 from .stats import CONFIDENCE, RESAMPLES, best_so_far_curve, generation_rewards, median_band
 from .tables import summary_cells
 
@@ -108,7 +109,7 @@ def _facts(run: RunDirectory, meta: dict[str, Any], experiment: Experiment | Non
 
         facts += [
             ("designers", ", ".join(d.label or d.name for d in experiment.designers)),
-            ("environment", label(experiment.env) + (f" / controller {label(experiment.controller)}" if experiment.controller else "")),
+            ("environment", ", ".join(map(label, experiment.envs)) + (f" / controller {label(experiment.controller)}" if experiment.controller else "")),
             ("budget", f"{experiment.budget} evaluations per run, population {experiment.population}, shape {experiment.shape[0]}x{experiment.shape[1]}"),
             ("seeds", ", ".join(map(str, experiment.seeds))),
         ]
@@ -272,6 +273,7 @@ def write_report(
     budget = _budget(experiment, frame)
     target, target_text = _threshold(threshold, meta)
     notes += _incomplete_runs(frame, experiment, budget)
+    notes += [f"{row.designer} on {row.env}: {row.line}" for row in failure_counts(frame).itertuples()]
     designers = list(pd.unique(frame["designer"]))
     taken: set[str] = set()
     slugs = {d: _slug(d, taken) for d in designers}
@@ -316,13 +318,14 @@ def write_report(
         )
     )  # fmt: skip
 
-    env_name = experiment.env.label if experiment is not None else str(frame["env"].iloc[0])
+    env_name = ", ".join(e.label for e in experiment.envs) if experiment is not None else ", ".join(map(str, frame["env"].unique()))
     report = Report(
         run_path=run.path,
         out=out,
         title=f"gdabench report: {', '.join(designers)} on {env_name}",
         facts=_facts(run, meta, experiment, target_text),
         notes=notes,
+        summary=summary,
         headers=headers,
         rows=rows,
         sections=sections,
@@ -343,14 +346,16 @@ def _animations(
 ) -> list[Figure]:
     """A GIF of each designer's best body, when the environment can render one."""
     try:
-        env, controller = build_scorers(experiment, reg or registry())
+        plan = Plan.resolve(experiment, reg or registry(), designers=False)
+        env, controller = plan.scorers()
     except GdabenchError as exc:
         notes.append(f"no animations: cannot rebuild the environment ({exc})")
         return []
     gifs = []
     for designer, (body, seed) in best_of.items():
         try:
-            gif = animate(env, controller, body, run=run, designer=designer, seed=seed)
+            workdir = plan.workdir(run.path, plan.envs[0].label, designer, seed, body.hash)
+            gif = animate(env, controller, body, seed=seed, workdir=workdir)
         except Exception as exc:  # noqa: BLE001 - a broken renderer must not cost the rest of the report
             notes.append(f"no animation for {designer}: {type(exc).__name__}: {exc}")
             continue

@@ -5,6 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import pandas as pd
+
 
 @dataclass(frozen=True)
 class Figure:
@@ -35,6 +37,7 @@ class Report:
     title: str
     facts: list[tuple[str, str]]
     notes: list[str]
+    summary: pd.DataFrame  # the per-designer table (report/summary.py), which headers and rows show
     headers: list[str]
     rows: list[list[str]]
     sections: list[Section] = field(default_factory=list)

@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import RunDirectoryError
-from ..evaluation import OK
+from ..execution.evaluation import OK
 from .stats import RUN_KEYS
 
 #: survivors per generation in the thesis's GDA and simple-environment GA

@@ -34,8 +34,15 @@ def has_threshold(summary: pd.DataFrame) -> bool:
     return bool(len(summary)) and bool(summary["threshold"].notna().any())
 
 
-def summary_cells(summary: pd.DataFrame, confidence: float = CONFIDENCE) -> tuple[list[str], list[list[str]]]:
-    """Headers and rows of the per-designer table built from :func:`gdabench.summary.summarize`."""
+def summary_cells(summary: pd.DataFrame, confidence: float = CONFIDENCE, compact: bool = False) -> tuple[list[str], list[list[str]]]:
+    """Headers and rows of the per-designer table built from :func:`gdabench.report.summary.summarize`.
+
+    ``compact`` is the terminal's view, which fits 80 columns: the best reward with its
+    interval, seeds reaching the threshold and the median evaluations to it, and wall time;
+    the environment only when there are several (the report has every column).
+    """
+    if compact:
+        return _compact_cells(summary, confidence)
     ci = f"median [{confidence:.0%} CI]"
     headers = ["designer", "env", "seeds", f"best reward, {ci}"]
     threshold = has_threshold(summary)
@@ -56,5 +63,23 @@ def summary_cells(summary: pd.DataFrame, confidence: float = CONFIDENCE) -> tupl
             with_interval(r["mean_best_so_far_median"], r["mean_best_so_far_ci_low"], r["mean_best_so_far_ci_high"]),
             f"{r['wall_seconds_median']:.1f}",
         ]
+        rows.append(cells)
+    return headers, rows
+
+
+def _compact_cells(summary: pd.DataFrame, confidence: float) -> tuple[list[str], list[list[str]]]:
+    several = summary["env"].nunique() > 1 or bool(summary["controller"].astype(bool).any())
+    threshold = has_threshold(summary)
+    target = number(float(summary["threshold"].dropna().iloc[0])) if threshold else ""
+    headers = ["designer", *(["env"] if several else []), f"best [{confidence:.0%} CI]"]
+    headers += [f"hit {target}", f"evals to {target}"] if threshold else []
+    headers += ["seconds"]
+    rows = []
+    for _, r in summary.iterrows():
+        cells = [str(r["designer"]), *([r["env"] + (f" / {r['controller']}" if r["controller"] else "")] if several else [])]
+        cells.append(with_interval(r["best_median"], r["best_ci_low"], r["best_ci_high"]))
+        if threshold:
+            cells += [f"{r['seeds_reached']}/{r['seeds']}", number(r["evals_to_threshold_median"], 6)]
+        cells.append(f"{r['wall_seconds_median']:.1f}")
         rows.append(cells)
     return headers, rows

@@ -47,7 +47,7 @@ def test_harness_run_ga_simple_1000(benchmark, tmp_path):
     counter = iter(range(10**6))
 
     def run():
-        exp = Experiment(designers=(PluginChoice("ga"),), env=PluginChoice("simple"), budget=1000)
+        exp = Experiment(designers=(PluginChoice("ga"),), envs=PluginChoice("simple"), budget=1000)
         return compare(exp, tmp_path / f"run{next(counter)}")
 
     run_dir = benchmark.pedantic(run, rounds=3, iterations=1)

@@ -14,8 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from gdabench.body import random_body
-from gdabench.evaluation import EvalTask
-from gdabench.executors import make_executor
+from gdabench.execution import EvalTask, Execution, make_executor
 from gdabench.specs import Factory
 
 SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_scale.py"
@@ -25,7 +24,7 @@ def test_process_executor_generation_on_simple(benchmark):
     env = Factory.of("gdabench.envs.simple:SumOfVoxels", {"shape": (5, 5)})
     rng = np.random.default_rng(0)
     tasks = [EvalTask(random_body(rng, (5, 5)), i, env) for i in range(25)]
-    with make_executor("process", 2, warm=[env]) as executor:
+    with make_executor(Execution(workers=2), warm=[env]) as executor:
         executor.map(tasks[:2])  # workers started outside the measurement
         outcomes = benchmark(executor.map, tasks)
     assert [o.reward for o in outcomes] == [float(t.body.voxels.sum()) for t in tasks]

@@ -15,9 +15,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
-from .body import Body
-from .environment import Environment, Evaluation
-from .specs import Factory
+from ..body import Body
+from ..environment import Environment, Evaluation
+from ..errors import one_line
+from ..specs import Factory
 
 OK, INVALID, DUPLICATE, ERROR, TIMEOUT = "ok", "invalid", "duplicate", "error", "timeout"
 #: statuses that used an evaluation (and so count against the budget)
@@ -47,7 +48,8 @@ class EvalOutcome:
 _built: dict[str, Any] = {}
 
 
-def _instance(recipe: Factory, prebuilt: Mapping[str, Any] | None = None) -> Any:
+def instance(recipe: Factory, prebuilt: Mapping[str, Any] | None = None) -> Any:
+    """The object ``recipe`` builds, built once per process (or taken from ``prebuilt``)."""
     key = recipe.key()
     if prebuilt and key in prebuilt:
         return prebuilt[key]
@@ -65,22 +67,17 @@ def prepare(recipes: Sequence[Factory]) -> None:
     """
     for recipe in recipes:
         try:
-            _instance(recipe)
+            instance(recipe)
         except Exception:  # noqa: BLE001
             pass
-
-
-def one_line(exc: BaseException) -> str:
-    text = str(exc).strip().splitlines()
-    return f"{type(exc).__name__}: {text[0] if text else ''}".rstrip(": ")
 
 
 def evaluate(task: EvalTask, prebuilt: Mapping[str, Any] | None = None) -> EvalOutcome:
     """Score one body; never raises for a failure of the environment or controller."""
     start = time.perf_counter()
     try:
-        env: Environment = _instance(task.env, prebuilt)
-        controller = _instance(task.controller, prebuilt) if task.controller else None
+        env: Environment = instance(task.env, prebuilt)
+        controller = instance(task.controller, prebuilt) if task.controller else None
         result = env.evaluate(task.body, seed=task.seed, controller=controller, workdir=task.workdir)
         ev = result if isinstance(result, Evaluation) else Evaluation(float(result))
         reward = float(ev.reward)

@@ -6,7 +6,7 @@ environment's optimum unless another is chosen) and after how many evaluations, 
 best-so-far reward (area under the best-so-far curve per evaluation), and how long a run took.
 Runs that never reach the threshold are censored: they count as "not reached" in the median and
 its interval instead of being dropped, so the median is not flattered (see
-:mod:`gdabench.report.stats`).
+:mod:`.stats`).
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ import math
 
 import pandas as pd
 
-from .evaluation import COUNTED, OK
-from .report.stats import (
+from ..execution.evaluation import COUNTED, OK
+from .stats import (
     CONFIDENCE,
     RESAMPLES,
     best_so_far_curve,
@@ -94,3 +94,25 @@ def summarize(
 def _ci(name: str, values, confidence: float, resamples: int) -> dict[str, float]:
     low, high = bootstrap_ci(values, confidence=confidence, resamples=resamples)
     return {f"{name}_ci_low": low, f"{name}_ci_high": high}
+
+
+#: statuses of rows whose body was not scored
+PROBLEMS = ("error", "timeout", "invalid")
+
+
+def failure_counts(evaluations: pd.DataFrame, examples: int = 2) -> pd.DataFrame:
+    """Per (designer, env) with any problem: error, timeout and invalid rows, the first distinct
+    messages, and how many trials had every evaluation fail (a trial that measured nothing)."""
+    rows = []
+    for (designer, env), g in evaluations.groupby(["designer", "env"], sort=False):
+        counts = {status: int((g["status"] == status).sum()) for status in PROBLEMS}
+        if not any(counts[s] for s in ("error", "timeout")) and not counts["invalid"]:
+            continue
+        failed = g[g["status"].isin(("error", "timeout"))]
+        messages = list(dict.fromkeys(failed["message"].astype(str)))[:examples]
+        counted = g[g["status"].isin(COUNTED)]
+        hopeless = int((counted.groupby("seed")["status"].apply(lambda s: bool((s != OK).all()))).sum()) if len(counted) else 0
+        parts = [f"{n} {status}" for status, n in counts.items() if n]
+        line = ", ".join(parts) + (f"; first: {'; '.join(messages)}" if messages else "")
+        rows.append({"designer": designer, "env": env, **counts, "all_failed_trials": hopeless, "messages": messages, "line": line})
+    return pd.DataFrame(rows, columns=["designer", "env", *PROBLEMS, "all_failed_trials", "messages", "line"])

@@ -24,10 +24,10 @@ import os
 from pathlib import Path
 from typing import Any, Mapping
 
-from .errors import ConfigError
+from ..errors import ConfigError
+from ..results import atomic_write_bytes, utc_now
+from ..specs import Factory
 from .evaluation import OK, EvalOutcome, EvalTask
-from .results import atomic_write_bytes, utc_now
-from .specs import Factory
 
 FORMAT = "gdabench-cache/1"
 

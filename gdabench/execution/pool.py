@@ -12,7 +12,7 @@ worker one task at a time and always knows which task a worker runs:
 Workers build the run's environment and controller before they report ready, so start-up is
 not charged to the first evaluation's timeout.  The pool logic is shared; a :class:`Backend`
 says what a worker is: a local process (:class:`ProcessBackend`, here) or a Ray actor
-(:mod:`gdabench.ray_executor`).
+(:mod:`gdabench.execution.ray`).
 """
 
 from __future__ import annotations
@@ -29,9 +29,10 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from typing import Any, Sequence
 
-from .errors import GdabenchError
-from .evaluation import ERROR, TIMEOUT, EvalOutcome, EvalTask, evaluate, one_line, prepare
-from .specs import Factory
+from ..errors import GdabenchError, one_line
+from ..specs import Factory
+from .evaluation import ERROR, TIMEOUT, EvalOutcome, EvalTask, evaluate, prepare
+from .executor import Executor
 
 #: seconds the pool waits for its first worker to import gdabench and build the environment
 #: (workers that start later, e.g. queued on a busy Ray cluster, may take as long as they need)
@@ -175,7 +176,7 @@ class WorkerPool:
 
 
 # -- local processes -------------------------------------------------------------------------------
-def _exit_when_orphaned(parent: int) -> None:
+def exit_when_orphaned(parent: int) -> None:
     while True:
         time.sleep(1.0)
         if os.getppid() != parent:
@@ -189,7 +190,7 @@ def _serve(conn: Connection, warm: Sequence[Factory], parent: int) -> None:
     itself when the driver dies, even in the middle of a hung evaluation.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    threading.Thread(target=_exit_when_orphaned, args=(parent,), daemon=True).start()
+    threading.Thread(target=exit_when_orphaned, args=(parent,), daemon=True).start()
     prepare(warm)
     conn.send(READY)
     while True:
@@ -279,3 +280,17 @@ class ProcessBackend(Backend):
         for worker in workers:
             worker.process.join(max(0.0, deadline - time.monotonic()))
             self.kill(worker)
+
+
+class ProcessExecutor(Executor):
+    """Local worker processes; a dead or hung worker costs only its own evaluation."""
+
+    def __init__(self, workers: int, *, timeout: float | None = None, warm: Sequence[Factory] = ()):
+        self.workers = workers
+        self._pool = WorkerPool(ProcessBackend(warm), workers, timeout=timeout)
+
+    def map(self, tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
+        return self._pool.map(tasks)
+
+    def close(self) -> None:
+        self._pool.close()

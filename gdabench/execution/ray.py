@@ -18,11 +18,11 @@ import sys
 from dataclasses import dataclass
 from typing import Any, Sequence
 
-from .errors import ConfigError
-from .evaluation import ERROR, EvalOutcome, EvalTask, evaluate, one_line, prepare
-from .executors import Executor
+from ..errors import ConfigError, one_line
+from ..specs import Factory
+from .evaluation import ERROR, EvalOutcome, EvalTask, evaluate, prepare
+from .executor import Executor
 from .pool import DIED, READY, RESULT, Backend, Slot, WorkerGone, WorkerPool
-from .specs import Factory
 
 
 def import_ray() -> Any:
@@ -94,12 +94,14 @@ class RayBackend(Backend):
         self.ray.kill(worker.handle, no_restart=True)
 
 
-class RayExecutor(Executor):
-    """A pool of Ray actors; at most ``workers`` bodies at once (default: the cluster's CPUs)."""
+class RayConnection:
+    """This process's connection to Ray: started here (a local instance) or joined; a context manager.
 
-    name = "ray"
+    Ray may already be connected (inside a trial actor, or a test's cluster): then it is used
+    as it is and left alone on close.
+    """
 
-    def __init__(self, workers: int | None = None, *, address: str | None = None, timeout: float | None = None, warm: Sequence[Factory] = ()):
+    def __init__(self, address: str | None = None, num_cpus: int | None = None):
         ray = self.ray = import_ray()
         self._started = False
         if not ray.is_initialized():
@@ -109,7 +111,7 @@ class RayExecutor(Executor):
             else:
                 # a local instance runs on this machine: give its workers the driver's import path,
                 # so that plugins importable here (installed or on PYTHONPATH) import there too
-                options["num_cpus"] = workers
+                options["num_cpus"] = num_cpus
                 options["runtime_env"] = {"env_vars": {"PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}}
             try:
                 ray.init(**options)
@@ -117,14 +119,33 @@ class RayExecutor(Executor):
                 where = f"the Ray cluster at {address}" if address else "a local Ray instance"
                 raise ConfigError(f"cannot start or reach {where}: {one_line(exc)}") from None
             self._started = True
-        self.workers = workers or max(1, int(ray.cluster_resources().get("CPU", 1)))
-        self._pool = WorkerPool(RayBackend(ray, warm), self.workers, timeout=timeout)
+
+    def cpus(self) -> int:
+        return max(1, int(self.ray.cluster_resources().get("CPU", 1)))
+
+    def close(self) -> None:
+        if self._started:
+            self.ray.shutdown()
+            self._started = False
+
+    def __enter__(self) -> RayConnection:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class RayExecutor(Executor):
+    """A pool of ``workers`` Ray actors evaluating one body each at a time."""
+
+    def __init__(self, workers: int, *, address: str | None = None, timeout: float | None = None, warm: Sequence[Factory] = ()):
+        self._connection = RayConnection(address, workers)
+        self.workers = workers
+        self._pool = WorkerPool(RayBackend(self._connection.ray, warm), workers, timeout=timeout)
 
     def map(self, tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
         return self._pool.map(tasks)
 
     def close(self) -> None:
         self._pool.close()
-        if self._started:
-            self.ray.shutdown()
-            self._started = False
+        self._connection.close()

@@ -1,0 +1,301 @@
+"""Where trials run: in this process, in local worker processes, or as Ray actors.
+
+Each place holds :class:`TrialHost` objects, which run the trials they are given one at a
+time: ``open`` a trial (fresh, or restored from its checkpoint), then ``step`` it one
+generation per call.  Every call goes out without waiting (:meth:`TrialWorkers.call`) and its
+answer comes back through :meth:`TrialWorkers.wait`, so the process that owns the run
+directory can keep several trials going, write each generation as it arrives and never share
+the directory with anyone.  A worker that dies costs only the trial it was running.
+"""
+
+from __future__ import annotations
+
+import abc
+import multiprocessing
+import os
+import signal
+import threading
+from dataclasses import dataclass
+from multiprocessing.connection import Connection, wait
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import pandas as pd
+
+from ..errors import GdabenchError, one_line
+from ..plan import TrialSpec
+from ..results import Checkpoint, RunDirectory
+from ..trial import Evaluate, GenerationResult, Trial
+from .cache import EvaluationCache
+from .evaluation import EvalOutcome, EvalTask, instance
+from .executor import Executor
+from .options import Execution, make_executor
+from .pool import death_message, exit_when_orphaned
+
+
+class TrialHost:
+    """Runs trials one at a time in its process, with one evaluation executor for its life."""
+
+    def __init__(self, run_id: str, run_path: Path, execution: Execution, prebuilt: Mapping[str, Any] | None = None):
+        self.run_id, self.run_path, self.execution = run_id, Path(run_path), execution
+        self.prebuilt = dict(prebuilt or {})
+        self.trial: Trial | None = None
+        self._executor: Executor | None = None
+        self._evaluate: Evaluate | None = None
+
+    def open(self, spec: TrialSpec, checkpoint: Checkpoint | None, done: pd.DataFrame | None) -> None:
+        """Start ``spec``'s trial, or continue it from ``checkpoint`` (``done``: its rows so far)."""
+        env = instance(spec.env.factory, self.prebuilt)
+        workdir = RunDirectory(self.run_path).artifacts(spec.name)
+        if checkpoint is None:
+            self.trial = Trial(spec, self.run_id, env, workdir)
+        else:
+            self.trial = Trial(spec, self.run_id, env, workdir, checkpoint.designer, checkpoint.next_generation, done)
+        if self._executor is None:
+            warm = [r for r in (spec.env.factory, spec.controller) if r is not None]
+            self._executor = make_executor(self.execution, self.prebuilt, warm)
+        self._evaluate = self._executor.map
+        if self.execution.cache is not None and spec.cache_context is not None:
+            self._evaluate = cached(self._executor.map, EvaluationCache(self.execution.cache, spec.cache_context))
+
+    def step(self) -> GenerationResult:
+        """Run the open trial's next generation."""
+        assert self.trial is not None and self._evaluate is not None, "open a trial first"
+        result = self.trial.step(self._evaluate)
+        if result.finished:
+            self.trial = None
+        return result
+
+    def close(self) -> None:
+        self.trial = None
+        if self._executor is not None:
+            self._executor.close()
+            self._executor = None
+
+
+def cached(evaluate: Evaluate, cache: EvaluationCache) -> Evaluate:
+    """``evaluate`` behind the cache: cached rewards where it has them, fresh ones stored."""
+
+    def evaluate_cached(tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
+        hits = [cache.get(task) for task in tasks]
+        fresh = iter(evaluate([task for task, hit in zip(tasks, hits) if hit is None]))
+        outcomes = []
+        for task, hit in zip(tasks, hits):
+            if hit is None:
+                hit = next(fresh)
+                cache.put(task, hit)
+            outcomes.append(hit)
+        return outcomes
+
+    return evaluate_cached
+
+
+@dataclass(frozen=True)
+class Answer:
+    """What came back from a worker: a call's value, or why it failed (``died``: the worker is gone)."""
+
+    worker: Any
+    ok: bool
+    value: Any
+    died: bool = False
+
+
+class TrialWorkers(abc.ABC):
+    """Places to run :class:`TrialHost` calls without waiting for them; a context manager."""
+
+    @abc.abstractmethod
+    def start(self) -> Any:
+        """A new worker holding a fresh TrialHost."""
+
+    @abc.abstractmethod
+    def call(self, worker: Any, method: str, *args: Any) -> None:
+        """Start ``host.method(*args)`` on ``worker``; its answer comes from :meth:`wait`."""
+
+    @abc.abstractmethod
+    def wait(self, workers: Sequence[Any]) -> list[Answer]:
+        """Block until at least one of ``workers`` answers; every answer that is in."""
+
+    @abc.abstractmethod
+    def kill(self, worker: Any) -> None:
+        """Stop a worker now, whatever it is doing."""
+
+    def close(self, workers: Sequence[Any]) -> None:
+        for worker in workers:
+            self.kill(worker)
+
+    def __enter__(self) -> TrialWorkers:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        pass
+
+
+def _answer(host: TrialHost, method: str, args: Sequence[Any]) -> tuple[bool, Any]:
+    try:
+        return True, getattr(host, method)(*args)
+    except GdabenchError as exc:
+        return False, str(exc)
+    except Exception as exc:  # noqa: BLE001 - a trial's failure is the trial's, reported in one line
+        return False, one_line(exc)
+
+
+# -- in this process --------------------------------------------------------------------------------
+class InProcess(TrialWorkers):
+    """One host in the calling process: a call runs at once, and ``wait`` hands over its answer."""
+
+    def __init__(self, host: TrialHost):
+        self.host = host
+        self._answers: list[Answer] = []
+
+    def start(self) -> TrialHost:
+        return self.host
+
+    def call(self, worker: TrialHost, method: str, *args: Any) -> None:
+        ok, value = _answer(worker, method, args)
+        self._answers.append(Answer(worker, ok, value))
+
+    def wait(self, workers: Sequence[Any]) -> list[Answer]:
+        answers, self._answers = self._answers, []
+        return answers
+
+    def kill(self, worker: TrialHost) -> None:
+        worker.close()
+
+
+# -- local worker processes ---------------------------------------------------------------------------
+def _serve(conn: Connection, host: TrialHost, parent: int) -> None:
+    """A trial worker process: answer the driver's calls until it says stop or goes away."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the driver decides what an interrupt means
+    threading.Thread(target=exit_when_orphaned, args=(parent,), daemon=True).start()
+    while True:
+        try:
+            message = conn.recv()
+        except EOFError:
+            break
+        if message is None:
+            break
+        method, args = message
+        ok, value = _answer(host, method, args)
+        try:
+            conn.send((ok, value))
+        except Exception as exc:  # noqa: BLE001 - e.g. an extra column value that does not pickle
+            conn.send((False, f"the trial's answer could not be sent to the driver: {one_line(exc)}"))
+    host.close()
+
+
+@dataclass(eq=False)
+class _Process:
+    process: multiprocessing.process.BaseProcess
+    conn: Connection
+
+
+class LocalProcesses(TrialWorkers):
+    """Trial workers as spawned local processes (spawn is safe with torch and threads)."""
+
+    def __init__(self, run_id: str, run_path: Path, execution: Execution):
+        self.args = (run_id, run_path, execution)
+        self._ctx = multiprocessing.get_context("spawn")
+
+    def start(self) -> _Process:
+        driver_end, worker_end = self._ctx.Pipe()
+        host = TrialHost(*self.args)
+        process = self._ctx.Process(target=_serve, args=(worker_end, host, os.getpid()), daemon=False, name="gdabench-trial")
+        process.start()
+        worker_end.close()
+        return _Process(process, driver_end)
+
+    def call(self, worker: _Process, method: str, *args: Any) -> None:
+        worker.conn.send((method, args))
+
+    def wait(self, workers: Sequence[_Process]) -> list[Answer]:
+        by_handle: dict[Any, _Process] = {}
+        for worker in workers:
+            by_handle[worker.conn] = by_handle[worker.process.sentinel] = worker
+        answers = []
+        for worker in dict.fromkeys(by_handle[r] for r in wait(list(by_handle))):
+            if worker.conn.poll():
+                try:
+                    ok, value = worker.conn.recv()
+                except (EOFError, OSError):
+                    pass
+                else:
+                    answers.append(Answer(worker, ok, value))
+                    continue
+            worker.process.join(5)
+            answers.append(Answer(worker, False, death_message(worker.process.exitcode).replace("worker", "trial worker"), died=True))
+        return answers
+
+    def kill(self, worker: _Process) -> None:
+        if worker.process.is_alive():
+            worker.process.kill()
+        worker.process.join(5)
+        worker.conn.close()
+
+    def close(self, workers: Sequence[_Process]) -> None:
+        """Ask idle workers to finish (closing their evaluation pools), then make sure they did."""
+        for worker in workers:
+            try:
+                worker.conn.send(None)
+            except (OSError, ValueError):
+                pass
+        for worker in workers:
+            worker.process.join(10)
+            self.kill(worker)
+
+
+# -- Ray actors ---------------------------------------------------------------------------------------
+class HostActor:
+    """A TrialHost inside a Ray actor, answering as a local worker process does."""
+
+    def __init__(self, *args: Any):
+        self.host = TrialHost(*args)
+
+    def call(self, method: str, args: Sequence[Any]) -> tuple[bool, Any]:
+        return _answer(self.host, method, args)
+
+
+@dataclass(eq=False)
+class _Actor:
+    handle: Any
+    pending: Any = None
+
+
+class RayActors(TrialWorkers):
+    """Trial workers as Ray actors (one CPU each), on a local Ray instance or a cluster."""
+
+    def __init__(self, ray: Any, run_id: str, run_path: Path, execution: Execution):
+        self.ray, self.args = ray, (run_id, run_path, execution)
+        self._cls = ray.remote(num_cpus=1, max_restarts=0, max_task_retries=0)(HostActor)
+
+    def start(self) -> _Actor:
+        return _Actor(self._cls.remote(*self.args))
+
+    def call(self, worker: _Actor, method: str, *args: Any) -> None:
+        worker.pending = worker.handle.call.remote(method, args)
+
+    def wait(self, workers: Sequence[_Actor]) -> list[Answer]:
+        ray = self.ray
+        by_ref = {w.pending: w for w in workers}
+        done, _ = ray.wait(list(by_ref), num_returns=1)
+        done, _ = ray.wait(list(by_ref), num_returns=len(by_ref), timeout=0)  # everything else that is in
+        answers = []
+        for ref in done:
+            worker = by_ref[ref]
+            try:
+                answers.append(Answer(worker, *ray.get(ref)))
+            except ray.exceptions.RayActorError as exc:
+                answers.append(Answer(worker, False, f"trial worker died: {one_line(exc)}", died=True))
+            except ray.exceptions.RayError as exc:  # e.g. an argument that could not be unpickled there
+                answers.append(Answer(worker, False, f"ray: {one_line(exc)}"))
+        return answers
+
+    def kill(self, worker: _Actor) -> None:
+        self.ray.kill(worker.handle, no_restart=True)
+
+    def close(self, workers: Sequence[_Actor]) -> None:
+        for worker in workers:
+            try:
+                self.ray.get(worker.handle.call.remote("close", ()), timeout=30)
+            except Exception:  # noqa: BLE001 - closing is best effort; the kill below is not
+                pass
+            self.kill(worker)

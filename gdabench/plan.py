@@ -1,0 +1,242 @@
+"""Resolving an experiment once: plugin names to specs, parameters to typed values, trials to recipes.
+
+Everything after resolution works from the :class:`Plan`: trial specs are picklable (factories
+named by import string, parameters converted), so they travel to worker processes and Ray
+actors unchanged, and :meth:`Plan.scorers` builds an environment and controller exactly as
+trials build them, for ``evaluate``, ``replay`` and the report.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+from . import seeding
+from .config import Experiment, PluginChoice
+from .designer import Designer
+from .environment import Controller, Environment
+from .errors import ConfigError, GdabenchError, PluginError, one_line
+from .execution.cache import recipe_identity
+from .params import check_params
+from .plugins import Registry, registry
+from .results import RunDirectory
+from .specs import Factory
+
+#: keyword arguments the harness itself passes to designer and environment factories
+HARNESS_DESIGNER_ARGS = ("shape", "population", "budget", "seed")
+HARNESS_ENV_ARGS = ("shape",)
+
+
+def _json(params: Mapping[str, Any]) -> str:
+    return json.dumps(dict(params), sort_keys=True, default=str)
+
+
+def file_name(text: str) -> str:
+    """``text`` made safe as (part of) a file name."""
+    return re.sub(r"[^A-Za-z0-9_.=-]+", "_", text)
+
+
+def _build(kind: str, label: str, recipe: Factory, **harness: Any) -> Any:
+    """Build a plugin object; a constructor's refusal of its parameters is a one-line input error."""
+    try:
+        return recipe.build(**harness)
+    except GdabenchError:
+        raise
+    except (ValueError, TypeError) as exc:
+        raise ConfigError(f"{kind} {label!r}: bad parameter: {one_line(exc)}") from None
+    except Exception as exc:  # noqa: BLE001 - a plugin that cannot even be built is the plugin's fault
+        raise PluginError(f"{kind} {label!r} could not be built: {one_line(exc)}") from None
+
+
+@dataclass(frozen=True)
+class DesignerRecipe:
+    """A designer as resolved: label, registered name, factory and its converted parameters."""
+
+    label: str
+    name: str
+    factory: Factory
+
+    @property
+    def params(self) -> dict[str, Any]:
+        return dict(self.factory.params)
+
+    def build(self, shape: tuple[int, int], population: int, budget: int, seed: int) -> Designer:
+        """The designer of one trial, seeded from the run's seed as every trial is."""
+        harness = dict(shape=tuple(shape), population=population, budget=budget, seed=seeding.designer_seed(seed))
+        designer = _build("designer", self.label, self.factory, **harness)
+        if not isinstance(designer, Designer):
+            raise PluginError(f"designer {self.label!r}: factory returned {type(designer).__name__}, not a gdabench.Designer")
+        return designer
+
+
+@dataclass(frozen=True)
+class EnvRecipe:
+    """An environment as resolved, with what the harness reads from it once."""
+
+    label: str
+    name: str
+    factory: Factory  # includes the body shape
+    version: str | None
+    optimum: float | None
+    deterministic: bool
+    package: tuple[str, str]
+
+
+@dataclass(frozen=True)
+class TrialSpec:
+    """One designer on one environment with one seed: everything a worker needs to run it."""
+
+    index: int  # position in the experiment's order (seed, environment, designer)
+    name: str  # file-system name of its checkpoint, pending rows and artifacts
+    designer: DesignerRecipe
+    env: EnvRecipe
+    controller: Factory | None
+    seed: int
+    repetition: int
+    shape: tuple[int, int]
+    population: int
+    budget: int
+    stop_at_optimum: bool
+    title: str  # how progress lines and messages name the trial
+    constants: Mapping[str, Any] = field(default_factory=dict)  # result columns every row of the trial shares
+    #: what an evaluation cache entry depends on besides body and seed; None: not cacheable
+    cache_context: Mapping[str, Any] | None = None
+
+    @property
+    def key(self) -> tuple[str, str, int]:
+        """(environment, designer, seed) labels: how the results table identifies the trial."""
+        return (self.env.label, self.designer.label, self.seed)
+
+
+
+class Plan:
+    """An experiment resolved against the installed plugins: recipes, trial specs, built scorers."""
+
+    def __init__(self, experiment: Experiment, envs: list[EnvRecipe], controller: Factory | None, controller_package: tuple[str, str] | None,
+                 designers: list[DesignerRecipe], built: dict[str, Any]):
+        self.experiment = experiment
+        self.envs = envs
+        self.controller = controller
+        self.designers = designers
+        #: why an environment's evaluations cannot be cached, by label
+        self.uncacheable: dict[str, str] = {}
+        self._contexts = {env.label: self._cache_context(env, controller_package) for env in envs}
+        #: environment and controller objects built while resolving, by recipe key (reused in-process)
+        self.built = built
+        self.trials = self._trials()
+
+    @classmethod
+    def resolve(cls, experiment: Experiment, reg: Registry | None = None, *, designers: bool = True) -> Plan:
+        """Check everything about ``experiment`` that can be checked without running it.
+
+        ``designers=False`` resolves only the environments and the controller (enough to score,
+        replay or animate bodies of a run; the plan then has no trials).
+        """
+        reg = reg or registry()
+        experiment.check()
+        exp = experiment
+        built: dict[str, Any] = {}
+        envs = [cls._env(reg, choice, exp, built) for choice in exp.envs]  # first: they say whether a controller belongs
+        controller, controller_package = None, None
+        if exp.controller is not None:
+            item = reg.get("controller", exp.controller.name)
+            controller_package = (item.distribution, item.version)
+            params = check_params("controller", exp.controller.label, item.spec.load(), {**item.spec.defaults, **exp.controller.params})
+            controller = Factory.of(item.spec.factory, params)
+            obj = built[controller.key()] = _build("controller", exp.controller.label, controller)
+            if not isinstance(obj, Controller):
+                raise PluginError(f"controller {exp.controller.label!r}: factory returned {type(obj).__name__}, not a gdabench.Controller")
+        recipes = []
+        for choice in exp.designers if designers else ():
+            item = reg.get("designer", choice.name)
+            params = check_params("designer", choice.label, item.spec.load(), {**item.spec.defaults, **choice.params}, HARNESS_DESIGNER_ARGS)
+            recipe = DesignerRecipe(choice.label, choice.name, Factory.of(item.spec.factory, params))
+            recipe.build(exp.shape, exp.population, exp.budget, exp.seeds[0])  # constructor checks, before any run starts
+            recipes.append(recipe)
+        return cls(exp, envs, controller, controller_package, recipes, built)
+
+    @staticmethod
+    def _env(reg: Registry, choice: PluginChoice, exp: Experiment, built: dict[str, Any]) -> EnvRecipe:
+        item = reg.get("environment", choice.name)
+        spec = item.spec
+        params = check_params("environment", choice.label, spec.load(), {**spec.defaults, **choice.params}, HARNESS_ENV_ARGS)
+        needs_controller = bool(getattr(spec, "requires_controller", False))
+        if needs_controller and exp.controller is None:
+            known = ", ".join(reg.names("controller")) or "(none installed)"
+            raise ConfigError(f"environment {choice.name!r} needs a controller: add --controller NAME (known: {known})")
+        if exp.controller is not None and not needs_controller:
+            raise ConfigError(f"environment {choice.name!r} scores bodies directly and takes no controller")
+        factory = Factory.of(spec.factory, {"shape": tuple(exp.shape), **params})
+        env = built[factory.key()] = _build("environment", choice.label, factory)
+        if not isinstance(env, Environment):
+            raise PluginError(f"environment {choice.label!r}: factory returned {type(env).__name__}, not a gdabench.Environment")
+        return EnvRecipe(choice.label, choice.name, factory, env.version, env.optimum, bool(env.deterministic), (item.distribution, item.version))
+
+    def _trials(self) -> list[TrialSpec]:
+        exp = self.experiment
+        several_envs = len(self.envs) > 1
+        trials: list[TrialSpec] = []
+        names: dict[str, str] = {}
+        for repetition, seed in enumerate(exp.seeds):
+            for env in self.envs:
+                for designer in self.designers:
+                    label = f"{env.label}-{designer.label}" if several_envs else designer.label
+                    name = self.trial_name(env.label, designer.label, seed)
+                    clash = names.get(name.lower())
+                    if clash is not None and clash != label:
+                        raise ConfigError(f"labels {clash!r} and {label!r} map to the same file name {name!r}; rename one")
+                    names[name.lower()] = label
+                    constants = {
+                        "designer": designer.label,
+                        "designer_name": designer.name,
+                        "env": env.label,
+                        "env_version": env.version or "",
+                        "controller": exp.controller.label if exp.controller else "",
+                        "designer_params": _json(designer.params),
+                        "env_params": _json({k: v for k, v in env.factory.params if k != "shape"}),
+                        "controller_params": _json(dict(self.controller.params)) if self.controller else "{}",
+                        "shape": f"{exp.shape[0]}x{exp.shape[1]}",
+                        "population": exp.population,
+                        "budget": exp.budget,
+                        "seed": seed,
+                        "repetition": repetition,
+                    }
+                    title = f"{label} seed {seed}"
+                    trials.append(TrialSpec(len(trials), name, designer, env, self.controller, seed, repetition, tuple(exp.shape),
+                                            exp.population, exp.budget, exp.stop_at_optimum, title, constants, self._contexts[env.label]))
+        return trials
+
+    def trial_name(self, env: str, designer: str, seed: int) -> str:
+        """The file-system name of a trial (its checkpoint, pending rows and artifacts)."""
+        label = f"{env}-{designer}" if len(self.experiment.envs) > 1 else designer
+        return f"{file_name(label)}-seed{seed}"
+
+    def workdir(self, run_path: Path, env: str, designer: str, seed: int, body_hash: str) -> Path:
+        """Where the trial's evaluation of a body kept its files (e.g. a trained policy)."""
+        return RunDirectory(run_path).artifacts(self.trial_name(env, designer, seed)) / body_hash
+
+    def _cache_context(self, env: EnvRecipe, controller_package: tuple[str, str] | None) -> dict[str, Any] | None:
+        if not env.deterministic:
+            self.uncacheable[env.label] = f"environment {env.label!r} is not deterministic"
+            return None
+        try:
+            return {
+                "env": env.name,
+                "env_recipe": recipe_identity(env.factory, env.package),
+                "controller": self.experiment.controller.name if self.experiment.controller else None,
+                "controller_recipe": recipe_identity(self.controller, controller_package),
+            }
+        except TypeError as exc:
+            self.uncacheable[env.label] = f"a parameter of {env.label!r} or its controller is not a plain value ({exc})"
+            return None
+
+    def scorers(self, env_label: str | None = None) -> tuple[Environment, Controller | None]:
+        """The environment (the first, or the one labelled ``env_label``) and controller, as trials build them."""
+        env = self.envs[0] if env_label is None else next((e for e in self.envs if e.label == env_label), None)
+        if env is None:
+            raise ConfigError(f"no environment {env_label!r} in this experiment; environments: {', '.join(e.label for e in self.envs)}")
+        controller = self.built[self.controller.key()] if self.controller is not None else None
+        return self.built[env.factory.key()], controller
