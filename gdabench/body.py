@@ -109,8 +109,8 @@ class Body:
         """Why Evolution Gym would reject this body, or None if it is valid."""
         return invalid_reason(self._voxels)
 
-    @property
     def is_valid(self) -> bool:
+        """Whether Evolution Gym would accept this body (as :func:`gdabench.is_valid` says of an array)."""
         return invalid_reason(self._voxels) is None
 
 

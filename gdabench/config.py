@@ -144,17 +144,14 @@ def parse_seeds(text: str | Sequence[int] | None, repetitions: int | None = None
         for part in text.split(","):
             part = part.strip()
             try:
-                if ".." in part:
-                    lo, hi = (int(v) for v in part.split(".."))
-                    if hi < lo:
-                        raise ValueError
-                    if hi - lo + 1 > MAX_SEEDS:
-                        raise ConfigError(f"seeds {text!r} name {hi - lo + 1} seeds; at most {MAX_SEEDS} are allowed")
-                    seeds.extend(range(lo, hi + 1))
-                else:
-                    seeds.append(int(part))
+                lo, hi = (int(v) for v in part.split("..")) if ".." in part else (int(part), int(part))
             except ValueError:
                 raise ConfigError(f"malformed seeds {text!r}: expected e.g. 0,1,2 or 0..9") from None
+            if hi < lo:
+                raise ConfigError(f"malformed seeds {text!r}: a range must not run backwards")
+            if hi - lo + 1 > MAX_SEEDS:
+                raise ConfigError(f"seeds {text!r} name {hi - lo + 1} seeds; at most {MAX_SEEDS} are allowed")
+            seeds.extend(range(lo, hi + 1))
     if len(seeds) > MAX_SEEDS:
         raise ConfigError(f"{len(seeds)} seeds given; at most {MAX_SEEDS} are allowed")
     for s in seeds:

@@ -66,7 +66,7 @@ def convert(value: Any, annotation: Any) -> Any:
                 return convert(value, arm)
             except _Refused as refused:
                 expected.append(str(refused))
-        raise _Refused(" or ".join(expected))
+        raise _Refused(" or ".join(expected + (["null"] if type(None) in arms else [])))
     if origin is Literal:
         choices = typing.get_args(annotation)
         if any(value == c and type(value) is type(c) for c in choices):

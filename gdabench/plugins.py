@@ -69,6 +69,7 @@ class Registry:
             self._register(plugin, name, "<in-process>", "")
         if entry_points:
             self._load_entry_points()
+        self._check_hooks()
         self._items: dict[Kind, dict[str, Registered]] = {kind: self._collect(kind) for kind in KINDS}
 
     # -- loading -----------------------------------------------------------------------------
@@ -78,6 +79,20 @@ class Registry:
         except Exception as exc:  # noqa: BLE001 - pluggy validation errors become one line
             raise PluginError(f"plugin {name!r} from package {dist} does not follow the gdabench contract: {exc}") from exc
         self._origin[name] = (dist, version)
+
+    def _check_hooks(self) -> None:
+        """Refuse hook functions pluggy would silently ignore: misspelt hook names and missing markers."""
+        hooks = sorted(name for name in dir(hookspecs) if name.startswith(f"{hookspecs.PROJECT_NAME}_"))
+        for name, plugin in self.pm.list_name_plugin():
+            dist = self._origin.get(name, ("unknown package", ""))[0]
+            for attr in dir(plugin):
+                if not attr.startswith(f"{hookspecs.PROJECT_NAME}_") or not callable(getattr(plugin, attr, None)):
+                    continue
+                marked = self.pm.parse_hookimpl_opts(plugin, attr) is not None
+                if attr not in hooks:
+                    raise PluginError(f"plugin {name!r} from package {dist}: {attr}() is not a gdabench hook (hooks: {', '.join(hooks)})")
+                if not marked:
+                    raise PluginError(f"plugin {name!r} from package {dist}: {attr}() lacks the @gdabench.hookimpl marker, so it would never be called")
 
     def _load_entry_points(self) -> None:
         disabled = {n.strip() for n in os.environ.get("GDABENCH_DISABLE_PLUGINS", "").split(",") if n.strip()}

@@ -41,6 +41,7 @@ from typing import Any, Callable, Mapping
 import pandas as pd
 from filelock import FileLock, Timeout
 
+from . import faults
 from .errors import ConfigError, RunDirectoryError, RunLockedError
 
 FORMAT = "gdabench-run/1"
@@ -232,6 +233,9 @@ class RunDirectory:
         except OSError as exc:
             raise ConfigError(f"cannot lock the run directory {self.path}: {exc.strerror or exc}") from None
         self._lock = lock
+        # temporary files a writer left when it died (the report folder is not the run's to clean)
+        for stale in [*self.path.glob(".*.tmp"), *self.path.glob(f"{PENDING}/*/.*.tmp"), *self.path.glob(f"{CHECKPOINTS}/.*.tmp")]:
+            stale.unlink(missing_ok=True)
         writer = {"pid": os.getpid(), "host": socket.gethostname(), "since": utc_now()}
         try:
             atomic_write_bytes(self.path / WRITER, json.dumps(writer).encode())
@@ -363,8 +367,15 @@ class RunDirectory:
             position = [order((str(e), str(d), int(s))) for e, d, s in merged[TRIAL_KEY].itertuples(index=False, name=None)]
             merged = merged.iloc[sorted(range(len(merged)), key=position.__getitem__)].reset_index(drop=True)
             atomic_write_bytes(self.evaluations_path, parquet_bytes(_core_first(merged)))
+            faults.point("trial-merged")
+        self.discard_trial_files(name)
+
+    def discard_trial_files(self, name: str) -> None:
+        """Remove a merged trial's pending rows and checkpoint (also what a kill during that left)."""
         shutil.rmtree(self.path / PENDING / name, ignore_errors=True)
+        faults.point("pending-removed")
         self.checkpoint_path(name).unlink(missing_ok=True)
+        faults.point("checkpoint-removed")
         for folder in (self.path / PENDING, self.path / CHECKPOINTS):
             if folder.is_dir() and not any(folder.iterdir()):
                 folder.rmdir()

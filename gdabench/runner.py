@@ -11,6 +11,7 @@ fails alone: the others complete, and the run ends ``failed`` naming it, resumab
 from __future__ import annotations
 
 import contextlib
+import multiprocessing
 import pickle
 import signal
 import sys
@@ -21,9 +22,11 @@ from collections import deque
 from pathlib import Path
 from typing import Any, Iterator, Sequence
 
+from . import faults
 from .config import Experiment
 from .errors import GdabenchError, RunDirectoryError, RunFailure, Terminated, TrialError, one_line
-from .execution.options import Execution
+from .execution import cores
+from .execution.options import Execution, cpu_count
 from .execution.trials import InProcess, LocalProcesses, TrialHost, TrialWorkers
 from .plan import Plan, TrialSpec
 from .plugins import Registry, registry
@@ -133,6 +136,20 @@ def _failure_line(plan: Plan, failures: dict[int, str]) -> str:
 
 
 @contextlib.contextmanager
+def _uninterrupted() -> Iterator[None]:
+    """Clean-up that one more Ctrl-C or SIGTERM must not cut short (it would leave workers behind)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+
+
+@contextlib.contextmanager
 def _signals_interrupt() -> Iterator[None]:
     """SIGTERM ends the run as Ctrl-C does (status ``interrupted``), where signals can be caught."""
     if threading.current_thread() is not threading.main_thread():
@@ -149,27 +166,55 @@ def _signals_interrupt() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
+class _SpareCores:
+    """The run's cores no trial runs on, lent to running trials once none is left waiting (:mod:`.execution.cores`)."""
+
+    def __init__(self, cores: int):
+        self.cores = cores
+        self.count = multiprocessing.get_context("spawn").Value("i", 0)
+        self.lent = False
+
+    def update(self, waiting: int, running: int, ended: int = 0) -> None:
+        """After trials started or ended: lend the idle cores once nothing waits for them."""
+        if waiting:
+            return
+        free = ended if self.lent else self.cores - running
+        self.lent = True
+        if free > 0:
+            with self.count.get_lock():
+                self.count.value += free
+
+
 @contextlib.contextmanager
-def _trial_workers(plan: Plan, run: RunDirectory, execution: Execution, trials: int) -> Iterator[tuple[TrialWorkers, int]]:
-    """Where this run's trials go, and how many at once."""
+def _trial_workers(plan: Plan, run: RunDirectory, execution: Execution, trials: int) -> Iterator[tuple[TrialWorkers, int, _SpareCores | None]]:
+    """Where this run's trials go, how many at once, and the cores they may borrow."""
     run_id = run.meta["run_id"]
     if execution.executor == "ray":
         from .execution.ray import RayConnection
         from .execution.trials import RayActors
 
         with RayConnection(execution.ray_address) as connection:
-            yield RayActors(connection.ray, run_id, run.path, execution), execution.jobs_for(trials, connection.cpus())
+            yield RayActors(connection.ray, run_id, run.path, execution), execution.jobs_for(trials, connection.cpus()), None
         return
     jobs = execution.jobs_for(trials)
-    if jobs == 1:
-        yield InProcess(TrialHost(run_id, run.path, execution, plan.built)), 1
-    else:
-        yield LocalProcesses(run_id, run.path, execution), jobs
+    spare = _SpareCores(execution.jobs or cpu_count()) if execution.workers == 1 else None
+    if jobs > 1:
+        yield LocalProcesses(run_id, run.path, execution, spare.count if spare else None), jobs, spare
+        return
+    if spare is not None:  # the trials run here, in this process
+        cores.install(spare.count, multiprocessing.Value("i", 0, lock=False))
+    try:
+        yield InProcess(TrialHost(run_id, run.path, execution, plan.built)), 1, spare
+    finally:
+        cores.uninstall()
 
 
 def _run_trials(plan: Plan, run: RunDirectory, execution: Execution, listener: RunListener) -> dict[int, str]:
     """Run every unfinished trial of ``plan``; the failed ones' messages by trial index."""
     finished = run.finished_trials()
+    for spec in plan.trials:
+        if spec.key in finished:
+            run.discard_trial_files(spec.name)  # left behind by a kill while the trial was being merged
     todo = deque(t for t in plan.trials if t.key not in finished)
     if not todo:
         return {}
@@ -178,7 +223,7 @@ def _run_trials(plan: Plan, run: RunDirectory, execution: Execution, listener: R
     failures: dict[int, str] = {}
     running: dict[Any, TrialSpec] = {}
     idle: list[Any] = []
-    with _trial_workers(plan, run, execution, len(todo)) as (workers, jobs):
+    with _trial_workers(plan, run, execution, len(todo)) as (workers, jobs, spare):
         try:
             while todo or running:
                 while todo and len(running) < jobs:
@@ -194,10 +239,14 @@ def _run_trials(plan: Plan, run: RunDirectory, execution: Execution, listener: R
                     workers.call(worker, "open", spec, checkpoint, done)
                     running[worker] = spec
                     listener.trial_started(spec)
+                if spare is not None:
+                    spare.update(len(todo), len(running))
                 for answer in workers.wait(list(running)):
                     spec = running[answer.worker]
                     if not answer.ok:
                         del running[answer.worker]
+                        if spare is not None:
+                            spare.update(len(todo), len(running), ended=1)
                         if answer.died:
                             workers.kill(answer.worker)
                         else:
@@ -208,20 +257,25 @@ def _run_trials(plan: Plan, run: RunDirectory, execution: Execution, listener: R
                     result = answer.value
                     if isinstance(result, GenerationResult):
                         run.append_generation(spec.name, result.generation, result.rows)
+                        faults.point("rows-written")
                         if result.checkpoint is not None:
                             run.save_checkpoint(spec.name, result.checkpoint)
+                            faults.point("checkpoint-written")
                         listener.generation(spec, result)
                         if result.finished:
                             run.finish_trial(spec.name, position)
                             del running[answer.worker]
+                            if spare is not None:
+                                spare.update(len(todo), len(running), ended=1)
                             idle.append(answer.worker)
                             listener.trial_finished(spec, None)
                             continue
                     workers.call(answer.worker, "step")
         finally:
-            for worker in running:
-                workers.kill(worker)
-            workers.close(idle)
+            with _uninterrupted():
+                for worker in running:
+                    workers.kill(worker)
+                workers.close(idle)
     return failures
 
 

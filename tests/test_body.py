@@ -51,11 +51,11 @@ def test_validity_matches_brute_force(grid):
     assert is_connected(grid) == reference_connected(grid)
     expected_valid = reference_connected(grid) and bool(np.isin(grid, (3, 4)).any())
     assert (invalid_reason(grid) is None) == expected_valid
-    assert Body(grid).is_valid == expected_valid
+    assert Body(grid).is_valid() == expected_valid
 
 
 def test_validity_examples():
-    assert Body.from_text("33/00").is_valid
+    assert Body.from_text("33/00").is_valid()
     assert Body.from_text("30/03").invalid_reason() == "voxels not connected"  # diagonal only
     assert Body.from_text("11/22").invalid_reason() == "no actuator"
     assert not is_connected(np.zeros((3, 3), dtype=np.int8))
@@ -113,7 +113,7 @@ def test_random_body_is_valid_unique_and_follows_evogym_weights():
         b = random_body(rng, (5, 5), exclude=seen)
         seen.add(b.hash)
         bodies.append(b)
-    assert all(b.is_valid for b in bodies) and len(seen) == 300
+    assert all(b.is_valid() for b in bodies) and len(seen) == 300
     # before the validity filter the sampler draws empty with probability 3/7
     assert EVOGYM_VOXEL_WEIGHTS[0] == pytest.approx(3 / 7)
     freq = np.bincount(np.concatenate([b.voxels.ravel() for b in bodies]), minlength=5) / (300 * 25)

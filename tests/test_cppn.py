@@ -184,7 +184,7 @@ def test_run_bodies_are_valid_unique_and_carry_extras(tmp_path):
     assert len(frame) == 200
     assert (frame["status"] == "ok").all()
     assert frame["body_hash"].is_unique
-    assert all(Body.from_text(t).is_valid for t in frame["body"])
+    assert all(Body.from_text(t).is_valid() for t in frame["body"])
     for column in ("cppn_genome", "cppn_species", "cppn_species_count", "cppn_nodes", "cppn_connections", "cppn_fresh", "cppn_replaced"):
         assert column in frame.columns
     assert (frame["cppn_nodes"] >= 5).all()  # five outputs, at least

@@ -92,7 +92,7 @@ def test_children_differ_from_parents_and_are_valid_and_unique():
     seen = set()
     for bodies, _, _ in history:
         for b in bodies:
-            assert b.is_valid and b.hash not in seen
+            assert b.is_valid() and b.hash not in seen
             seen.add(b.hash)
     ga2 = GeneticAlgorithm(population=25, budget=1000, survivors=5, seed=designer_seed(7))
     first = ga2.ask()

@@ -268,7 +268,7 @@ def test_proposals_are_valid_unique_and_never_seen_before():
     history = run(designer, 5)
     everything = [b for gen in history for b in gen]
     assert all(len(gen) == 10 for gen in history)
-    assert all(b.is_valid for b in everything)
+    assert all(b.is_valid() for b in everything)
     assert len({b.hash for b in everything}) == len(everything)
     sources = [row["source"] for row in designer.proposal_info()]
     assert sources and set(sources) <= {"sampled", "random"}
@@ -342,7 +342,7 @@ def test_sampling_shortfall_falls_back_to_random_bodies_instead_of_crashing():
     assert [row["source"] for row in info].count("random") >= 7
     assert all(row["samples_drawn"] <= 3 for row in info)
     everything = [b for gen in history for b in gen]
-    assert all(len(gen) == 10 for gen in history) and all(b.is_valid for b in everything)
+    assert all(len(gen) == 10 for gen in history) and all(b.is_valid() for b in everything)
     assert len({b.hash for b in everything}) == len(everything)
 
 
@@ -360,7 +360,7 @@ def test_pickled_designer_resumes_exactly(params):
 def test_variants_and_options_run():
     for designer in (gda(schedule="cosine"), gda(sampler="ddim", sample_steps=10), gda(sample_batch=7), gda(temperature=0.5)):
         history = run(designer, 2)
-        assert all(len(gen) == 10 and all(b.is_valid for b in gen) for gen in history)
+        assert all(len(gen) == 10 and all(b.is_valid() for b in gen) for gen in history)
     fast = make_designer("gda-fast", seed=0, shape=(5, 5), population=10, budget=1000)
     assert isinstance(fast, GenerationalDiffusion) and fast.pool == 1000 and fast.max_samples == 2000 and fast.sampler == "ddim"
     fast = make_designer("gda-fast", seed=0, shape=(5, 5), population=10, budget=1000, steps=50, pool=40)
@@ -379,7 +379,7 @@ def test_pool_proposes_the_bodies_the_regression_rates_best(monkeypatch):
     designer = gda(pool=40)
     history = run(designer, 3)
     everything = [b for gen in history for b in gen]
-    assert all(len(gen) == 10 and all(b.is_valid for b in gen) for gen in history)
+    assert all(len(gen) == 10 and all(b.is_valid() for b in gen) for gen in history)
     assert len({b.hash for b in everything}) == len(everything)
     assert designer._seen == {b.hash for b in everything}  # the bodies left in the pool stay unseen
     # the choice: the best-rated candidates of the pool, in order of rating

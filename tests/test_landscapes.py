@@ -68,7 +68,7 @@ def test_two_peaks_matches_the_formula_on_random_bodies():
         for _ in range(50):
             x = np.array(peak)
             x[rng.integers(25)] = rng.integers(5)
-            if Body(x.reshape(5, 5)).is_valid:
+            if Body(x.reshape(5, 5)).is_valid():
                 bodies.append(Body(x.reshape(5, 5)))
     rewards = [env.evaluate(b, seed=0) for b in bodies]
     assert rewards == pytest.approx([two_peaks_formula(b.voxels) for b in bodies], abs=1e-12)
@@ -85,7 +85,7 @@ def test_two_peaks_refuses_other_shapes():
 # -- target --------------------------------------------------------------------------------------
 def test_default_target_is_a_valid_non_uniform_body_scoring_100():
     env = make_env("target")
-    assert DEFAULT_TARGET.is_valid
+    assert DEFAULT_TARGET.is_valid()
     assert len(np.unique(DEFAULT_TARGET.voxels)) == 5, "the default target uses every material"
     assert env.evaluate(DEFAULT_TARGET, seed=0) == 100.0
     assert env.optimum == 100.0
@@ -190,11 +190,11 @@ def test_nk_optimum_is_the_best_valid_body_by_brute_force(shape, ks):
             rewards = env.score_batch(bodies)
             best_valid = rewards[valid].max()
             assert env.optimum == pytest.approx(best_valid, abs=1e-9)
-            assert env.optimum_body.is_valid and env.evaluate(env.optimum_body, seed=0) == env.optimum
+            assert env.optimum_body.is_valid() and env.evaluate(env.optimum_body, seed=0) == env.optimum
             assert env.upper_bound == pytest.approx(rewards.max(), abs=1e-9)
             # the validity-aware DP on its own, whichever path the environment took
             codes, total = nk_optimum.best_body(shape, k, env.table, valid=True)
-            assert Body(codes).is_valid and 100 * total / codes.size == pytest.approx(best_valid, abs=1e-9)
+            assert Body(codes).is_valid() and 100 * total / codes.size == pytest.approx(best_valid, abs=1e-9)
             free_differs += rewards.max() > best_valid + 1e-9
     if shape in ((1, 6), (2, 3)):
         assert free_differs, "these cases include tables whose unconstrained best body is invalid"
@@ -217,7 +217,7 @@ def greedy_ascent(env, start: Body) -> float:
                 if code != x.flat[i]:
                     y = x.copy()
                     y.flat[i] = code
-                    if Body(y).is_valid:
+                    if Body(y).is_valid():
                         neighbours.append(y)
         rewards = env.score_batch(np.array(neighbours))
         best = int(np.argmax(rewards))

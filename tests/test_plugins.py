@@ -121,6 +121,30 @@ def test_name_collision_names_both_packages(tmp_path):
     assert "package gdabench)" in result.stderr and "package gdabench-clash)" in result.stderr
 
 
+def test_a_misspelt_hook_is_one_line_naming_plugin_and_function(tmp_path):
+    body = """
+        import gdabench
+        @gdabench.hookimpl
+        def gdabench_designer():
+            return []
+        """
+    site = pip_install(make_package(tmp_path / "src", "gdabench-typo", "typo_plugin", body), tmp_path / "site")
+    result = gdabench_cli("list", path=site)
+    lines = [l for l in result.stderr.splitlines() if l.strip()]
+    assert result.returncode == 2 and len(lines) == 1, result.stderr
+    assert "plugin 'typo_plugin' from package gdabench-typo: gdabench_designer() is not a gdabench hook" in lines[0]
+    assert "gdabench_designers" in lines[0]  # the hooks it could have meant
+
+
+def test_a_hook_without_its_marker_is_refused():
+    class Unmarked:
+        def gdabench_designers(self):
+            return []
+
+    with pytest.raises(PluginError, match=r"plugin 'quiet' from package <in-process>: gdabench_designers\(\) lacks the @gdabench.hookimpl marker"):
+        Registry(entry_points=False, extra_plugins={"quiet": Unmarked()})
+
+
 def test_registry_checks_spec_types_and_lookup():
     class Wrong:
         @hookimpl

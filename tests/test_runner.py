@@ -186,7 +186,7 @@ def test_same_command_same_table(tmp_path):
     # every evaluated body is valid and unique within its (designer, seed) run
     ok = a[a["status"] == "ok"]
     assert ok.groupby(["designer", "seed"])["body_hash"].apply(lambda s: s.is_unique).all()
-    assert all(Body.from_text(t).is_valid for t in ok["body"])
+    assert all(Body.from_text(t).is_valid() for t in ok["body"])
     # common random numbers: ga and random share generation 0 under the same seed
     g0 = a[a["generation"] == 0]
     assert list(g0[(g0.designer == "ga") & (g0.seed == 1)]["body"]) == list(g0[(g0.designer == "random") & (g0.seed == 1)]["body"])

@@ -7,14 +7,11 @@ processes, Ray workers and ``gdabench`` subprocesses import it as they would a u
 
 from __future__ import annotations
 
-import importlib
 import json
 import math
 import multiprocessing
 import os
-import shutil
 import signal
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -28,32 +25,10 @@ from gdabench.body import Body
 from gdabench.errors import ConfigError
 from gdabench.execution import OK, EvalOutcome, EvalTask, Execution, make_executor
 from gdabench.execution.cache import EvaluationCache
-from gdabench.plugins import Registry
 from gdabench.results import RunDirectory
 from gdabench.specs import Factory
 from listeners import KillAt, Killed
-
-FIXTURE = Path(__file__).parent / "fixtures" / "faulty_plugin"
-#: columns that legitimately differ between two runs of the same command
-TIMING = ["run_id", "eval_seconds", "design_seconds", "elapsed_seconds", "timestamp"]
-
-
-@pytest.fixture(scope="module")
-def faulty_site(tmp_path_factory) -> Path:
-    src = tmp_path_factory.mktemp("src") / "faulty_plugin"
-    shutil.copytree(FIXTURE, src)
-    site = tmp_path_factory.mktemp("site")
-    cmd = [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation", "--target", str(site), str(src)]
-    subprocess.run(cmd, check=True, capture_output=True)
-    return site
-
-
-@pytest.fixture
-def reg(faulty_site, monkeypatch) -> Registry:
-    """A registry with the built-ins and the faulty plugin, importable by worker processes too."""
-    monkeypatch.syspath_prepend(str(faulty_site))
-    return Registry(entry_points=False, extra_plugins={"faulty": importlib.import_module("gdabench_faulty.plugin")})
-
+from processes import cli, table
 
 @pytest.fixture(scope="module")
 def ray_cluster(faulty_site):
@@ -63,19 +38,6 @@ def ray_cluster(faulty_site):
     ray.init(num_cpus=2, include_dashboard=False, logging_level="WARNING", runtime_env={"env_vars": {"PYTHONPATH": path}})
     yield ray
     ray.shutdown()
-
-
-def cli(*args: str, site: Path, env: dict | None = None, **kw) -> subprocess.Popen | subprocess.CompletedProcess:
-    environ = dict(os.environ, COLUMNS="200", PYTHONPATH=os.pathsep.join(filter(None, [str(site), os.environ.get("PYTHONPATH")])), **(env or {}))
-    command = [sys.executable, "-m", "gdabench", *args]
-    if kw.pop("background", False):
-        return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environ)
-    return subprocess.run(command, capture_output=True, text=True, env=environ, timeout=300)
-
-
-def table(run_dir: Path, drop=()) -> pd.DataFrame:
-    frame = RunDirectory.open(run_dir).load_evaluations()
-    return frame.drop(columns=[*TIMING, *drop]).sort_values(["seed", "designer", "generation", "index"]).reset_index(drop=True)
 
 
 def voxel_sum(text: str) -> float:

@@ -15,6 +15,7 @@ from gymnasium.utils.env_checker import check_env
 from PIL import Image
 
 import gdabench
+from gdabench.runner import compare as run_experiment
 from gdabench import Body, ConfigError, Evaluation, make_controller, make_env
 from gdabench.controllers.open_loop import OpenLoop, Pattern
 from gdabench.envs.walker import ENV_ID, gym_env
@@ -420,13 +421,13 @@ def test_walker_env_renders_the_best_episode():
 def test_compare_runs_the_walker_with_open_loop(tmp_path):
     experiment = gdabench.Experiment(
         designers=(gdabench.PluginChoice("random"),),
-        env=gdabench.PluginChoice("walker"),
+        envs=gdabench.PluginChoice("walker"),
         controller=gdabench.PluginChoice("open-loop", {"trials": 1}),
         shape=(3, 3),
         population=2,
         budget=4,
     )
-    run = gdabench.compare(experiment, tmp_path / "run")
+    run = run_experiment(experiment, tmp_path / "run")
     rows = run.load_evaluations()
     ok = rows[rows["status"] == "ok"]
     assert len(ok) == 4 and ok["reward"].notna().all()

@@ -62,7 +62,18 @@ class Pattern:
 
 
 class OpenLoop(Controller):
-    """Drives every actuator with a position-dependent sinusoid; reward = best episode return."""
+    """Drives every actuator with a position-dependent sinusoid; reward = best episode return.
+
+    Parameters:
+        period: environment steps per cycle of the fixed pattern
+        amplitude: swing of the target length ratio around center
+        center: mean target length ratio (actions are clipped to the action space)
+        phase_per_column: phase shift (radians) per column: a wave along the body
+        phase_per_row: phase shift (radians) per row
+        vertical_phase: extra phase of vertical actuators
+        trials: patterns played (the fixed one plus random ones seeded by the evaluation seed); the best counts
+        period_range: periods (low, high) the random patterns draw from
+    """
 
     def __init__(
         self,

@@ -28,7 +28,14 @@ SURVIVAL_HIGH = 0.6  # Evolution Gym's get_percent_survival_evals: 60% -> 0%
 
 
 class GeneticAlgorithm(Designer):
-    """Mutation-only GA with Evolution Gym's survivor schedule (or a fixed survivor count)."""
+    """Mutation-only GA with Evolution Gym's survivor schedule (or a fixed survivor count).
+
+    Parameters:
+        survivors: bodies kept each generation; None follows Evolution Gym's 60% -> 0% schedule (the thesis used 5 on simple)
+        mutation_rate: probability that a child's voxel is redrawn
+        attempts: mutations of one child tried until it is valid and new
+        max_tries: children drawn per generation before the designer gives up
+    """
 
     def __init__(
         self,

@@ -56,7 +56,12 @@ def _splitmix_uniform(key: np.uint64 | np.ndarray, counters: np.ndarray) -> np.n
 
 
 class NKLandscape(Landscape):
-    """Reward = 100 * mean over voxels of a random function of the voxel and the K before it."""
+    """Reward = 100 * mean over voxels of a random function of the voxel and the K before it.
+
+    Parameters:
+        k: how many preceding voxels each voxel's contribution depends on (0 smooth, more rugged)
+        table_seed: seed of the contribution tables (the landscape itself; not the run's seed)
+    """
 
     name = "nk"
 

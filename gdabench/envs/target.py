@@ -60,7 +60,12 @@ def parse_target(value: Any) -> Body:
 
 
 class TargetBody(Landscape):
-    """Reward = 100 * (exact matches + class_credit * class-only matches) / voxels."""
+    """Reward = 100 * (exact matches + class_credit * class-only matches) / voxels.
+
+    Parameters:
+        target: the body to reproduce, as text (rows joined by '/') or a file holding it; default a 5x5 walker
+        class_credit: credit (0-1) for a voxel of the target's material class but not its exact material
+    """
 
     name = "target"
 

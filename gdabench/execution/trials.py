@@ -26,6 +26,7 @@ from ..errors import GdabenchError, one_line
 from ..plan import TrialSpec
 from ..results import Checkpoint, RunDirectory
 from ..trial import Evaluate, GenerationResult, Trial
+from . import cores
 from .cache import EvaluationCache
 from .evaluation import EvalOutcome, EvalTask, instance
 from .executor import Executor
@@ -45,6 +46,7 @@ class TrialHost:
 
     def open(self, spec: TrialSpec, checkpoint: Checkpoint | None, done: pd.DataFrame | None) -> None:
         """Start ``spec``'s trial, or continue it from ``checkpoint`` (``done``: its rows so far)."""
+        cores.release()
         env = instance(spec.env.factory, self.prebuilt)
         workdir = RunDirectory(self.run_path).artifacts(spec.name)
         if checkpoint is None:
@@ -64,10 +66,12 @@ class TrialHost:
         result = self.trial.step(self._evaluate)
         if result.finished:
             self.trial = None
+            cores.release()
         return result
 
     def close(self) -> None:
         self.trial = None
+        cores.release()
         if self._executor is not None:
             self._executor.close()
             self._executor = None
@@ -163,14 +167,15 @@ class InProcess(TrialWorkers):
 
 
 # -- local worker processes ---------------------------------------------------------------------------
-def _serve(conn: Connection, host: TrialHost, parent: int) -> None:
+def _serve(conn: Connection, host: TrialHost, parent: int, pool: Any, held: Any) -> None:
     """A trial worker process: answer the driver's calls until it says stop or goes away."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the driver decides what an interrupt means
+    cores.install(pool, held)
     threading.Thread(target=exit_when_orphaned, args=(parent,), daemon=True).start()
     while True:
         try:
             message = conn.recv()
-        except EOFError:
+        except (EOFError, OSError):  # the driver is gone
             break
         if message is None:
             break
@@ -178,6 +183,8 @@ def _serve(conn: Connection, host: TrialHost, parent: int) -> None:
         ok, value = _answer(host, method, args)
         try:
             conn.send((ok, value))
+        except OSError:  # the driver is gone
+            break
         except Exception as exc:  # noqa: BLE001 - e.g. an extra column value that does not pickle
             conn.send((False, f"the trial's answer could not be sent to the driver: {one_line(exc)}"))
     host.close()
@@ -190,16 +197,21 @@ class _Process:
 
 
 class LocalProcesses(TrialWorkers):
-    """Trial workers as spawned local processes (spawn is safe with torch and threads)."""
+    """Trial workers as spawned local processes (spawn is safe with torch and threads).
 
-    def __init__(self, run_id: str, run_path: Path, execution: Execution):
-        self.args = (run_id, run_path, execution)
+    ``spare`` is the run's count of spare cores (a ``multiprocessing.Value`` of the spawn
+    context) that the workers' trials may borrow (:mod:`.cores`).
+    """
+
+    def __init__(self, run_id: str, run_path: Path, execution: Execution, spare: Any):
+        self.args, self.spare = (run_id, run_path, execution), spare
         self._ctx = multiprocessing.get_context("spawn")
 
     def start(self) -> _Process:
         driver_end, worker_end = self._ctx.Pipe()
         host = TrialHost(*self.args)
-        process = self._ctx.Process(target=_serve, args=(worker_end, host, os.getpid()), daemon=False, name="gdabench-trial")
+        held = self._ctx.Value("i", 0, lock=False)  # changed only under the spare count's lock
+        process = self._ctx.Process(target=_serve, args=(worker_end, host, os.getpid(), self.spare, held), daemon=False, name="gdabench-trial")
         process.start()
         worker_end.close()
         return _Process(process, driver_end)
@@ -245,9 +257,10 @@ class LocalProcesses(TrialWorkers):
 
 # -- Ray actors ---------------------------------------------------------------------------------------
 class HostActor:
-    """A TrialHost inside a Ray actor, answering as a local worker process does."""
+    """A TrialHost inside a Ray actor, answering as a local worker process does (never borrowing cores)."""
 
     def __init__(self, *args: Any):
+        cores.install(None, None)
         self.host = TrialHost(*args)
 
     def call(self, method: str, args: Sequence[Any]) -> tuple[bool, Any]:

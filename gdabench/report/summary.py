@@ -12,6 +12,7 @@ its interval instead of being dropped, so the median is not flattered (see
 from __future__ import annotations
 
 import math
+from typing import Any, Mapping, Union
 
 import pandas as pd
 
@@ -29,21 +30,41 @@ from .stats import (
 
 GROUP = ["designer", "env", "controller"]
 PER_RUN_COLUMNS = ["best_reward", "evaluations", "evals_to_threshold", "mean_best_so_far", "wall_seconds"]
+#: one threshold for every environment, or one per environment label (None: none)
+Threshold = Union[float, Mapping[str, Union[float, None]], None]
 
 
-def per_run(evaluations: pd.DataFrame, threshold: float | None = None) -> pd.DataFrame:
+def threshold_of(threshold: Threshold, env: str) -> float | None:
+    if isinstance(threshold, Mapping):
+        return threshold.get(env)
+    return threshold
+
+
+def thresholds(meta: Mapping[str, Any], override: float | None = None) -> Threshold:
+    """The threshold of each environment of a run: ``override``, else each environment's optimum
+    as ``run.json`` recorded it (None where unknown)."""
+    if override is not None:
+        return override
+    envs = meta.get("envs")
+    if isinstance(envs, Mapping):
+        return {label: (info or {}).get("optimum") for label, info in envs.items()}
+    return meta.get("env_optimum")
+
+
+def per_run(evaluations: pd.DataFrame, threshold: Threshold = None) -> pd.DataFrame:
     """One row per (designer, env, controller, seed): best reward, evaluations, time to threshold."""
     keys = GROUP + ["seed"]
     rows = []
     for key, g in evaluations.groupby(keys, sort=False, dropna=False):
         ok = g[g["status"] == OK]
         evaluations_used = int(g["status"].isin(COUNTED).sum())
+        target = threshold_of(threshold, key[1])
         rows.append(
             {
                 **dict(zip(keys, key)),
                 "best_reward": float(ok["reward"].max()) if len(ok) else math.nan,
                 "evaluations": evaluations_used,
-                "evals_to_threshold": first_reach(g, threshold) if threshold is not None else math.nan,
+                "evals_to_threshold": first_reach(g, target) if target is not None else math.nan,
                 "mean_best_so_far": mean_best_so_far(best_so_far_curve(g, evaluations_used)),
                 "wall_seconds": float(g["elapsed_seconds"].max()),
             }
@@ -53,7 +74,7 @@ def per_run(evaluations: pd.DataFrame, threshold: float | None = None) -> pd.Dat
 
 def summarize(
     evaluations: pd.DataFrame,
-    threshold: float | None = None,
+    threshold: Threshold = None,
     *,
     confidence: float = CONFIDENCE,
     resamples: int = RESAMPLES,
@@ -66,6 +87,7 @@ def summarize(
     runs = per_run(evaluations, threshold)
     out = []
     for key, g in runs.groupby(GROUP, sort=False, dropna=False):
+        target = threshold_of(threshold, key[1])
         best = g["best_reward"].dropna()
         auc = g["mean_best_so_far"].dropna()
         to_threshold = censored(g["evals_to_threshold"])
@@ -79,10 +101,10 @@ def summarize(
             "best_min": float(best.min()),
             "best_max": float(best.max()),
             "evaluations_median": float(g["evaluations"].median()),
-            "threshold": threshold if threshold is not None else math.nan,
-            "seeds_reached": int(g["evals_to_threshold"].notna().sum()) if threshold is not None else 0,
-            "evals_to_threshold_median": censored_median(g["evals_to_threshold"]) if threshold is not None else math.nan,
-            **_ci("evals_to_threshold", to_threshold if threshold is not None else [], confidence, resamples),
+            "threshold": target if target is not None else math.nan,
+            "seeds_reached": int(g["evals_to_threshold"].notna().sum()) if target is not None else 0,
+            "evals_to_threshold_median": censored_median(g["evals_to_threshold"]) if target is not None else math.nan,
+            **_ci("evals_to_threshold", to_threshold if target is not None else [], confidence, resamples),
             "mean_best_so_far_median": float(auc.median()),
             **_ci("mean_best_so_far", auc, confidence, resamples),
             "wall_seconds_median": float(g["wall_seconds"].median()),

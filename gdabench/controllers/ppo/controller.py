@@ -54,7 +54,30 @@ def has_cpp_compiler() -> bool:
 
 
 class PPO(Controller):
-    """Evolution Gym 2.0's PPO on TorchRL (parameters: every PPOConfig field)."""
+    """Evolution Gym 2.0's PPO on TorchRL (parameters: every PPOConfig field).
+
+    Parameters:
+        timesteps: environment steps of training per body (Evolution Gym 2.0: 1e6; default 50,000)
+        learning_rate: Adam's learning rate
+        n_steps: steps per rollout
+        batch_size: minibatch size
+        n_epochs: passes over each rollout
+        gamma: discount factor
+        gae_lambda: GAE's lambda
+        vf_coef: value loss weight
+        ent_coef: entropy bonus weight
+        clip_range: PPO's clip range
+        max_grad_norm: gradient norm clip
+        n_envs: environments stepped together
+        eval_interval: timesteps between evaluations (default: timesteps / 10)
+        n_evals: episodes per evaluation
+        deterministic_eval: evaluate the policy's mean action instead of sampling
+        episode_end: how an evaluation episode is scored: evogym2 (drops the last step's reward) or full
+        hidden: sizes of the hidden layers of policy and value networks
+        device: cpu, cuda, cuda:N or auto
+        compile: torch.compile the update (true, false, or auto: for long trainings on the CPU)
+        threads: torch threads per training
+    """
 
     def __init__(self, **params: Any):
         try:
@@ -119,7 +142,7 @@ class PPO(Controller):
 # the harness reads a factory's keyword parameters from its signature: expose PPOConfig's fields
 PPO.__init__.__signature__ = inspect.Signature(  # type: ignore[attr-defined]
     [inspect.Parameter("self", inspect.Parameter.POSITIONAL_OR_KEYWORD)]
-    + [p.replace(kind=inspect.Parameter.KEYWORD_ONLY) for p in inspect.signature(PPOConfig).parameters.values()]
+    + [p.replace(kind=inspect.Parameter.KEYWORD_ONLY) for p in inspect.signature(PPOConfig, eval_str=True).parameters.values()]
 )
 
 

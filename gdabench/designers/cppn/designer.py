@@ -40,7 +40,12 @@ _NEAT_PARTS = ("_config", "_stagnation", "_reproduction", "_species")
 
 
 class CppnNeat(Designer):
-    """CPPN-NEAT with Evolution Gym's configuration (or a user's neat-python config file)."""
+    """CPPN-NEAT with Evolution Gym's configuration (or a user's neat-python config file).
+
+    Parameters:
+        config: a neat-python config file to use instead of Evolution Gym's (the population size comes from --population)
+        max_replacements: fresh genomes tried per generation to replace invalid or repeated bodies
+    """
 
     def __init__(self, *, config: str | None = None, max_replacements: int = 100_000, **kwargs: Any):
         super().__init__(**kwargs)

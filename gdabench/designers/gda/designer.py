@@ -423,7 +423,7 @@ def load_prior(source: str, top: int, shape: tuple[int, int]) -> list[Body]:
     except Exception as exc:  # noqa: BLE001 - any unreadable file is one line for the user
         raise ConfigError(f"gda: cannot read prior {source!r}: {type(exc).__name__}: {exc}") from None
     bodies = [as_body(t) for t in texts]
-    bodies = [b for b in bodies if b.shape == tuple(shape) and b.is_valid][:top]
+    bodies = [b for b in bodies if b.shape == tuple(shape) and b.is_valid()][:top]
     if not bodies:
         raise ConfigError(f"gda: prior {source!r} holds no valid {shape[0]}x{shape[1]} body")
     return bodies

@@ -1,0 +1,33 @@
+"""Fixtures shared by the tests that drive real processes: the faulty plugin, installed once."""
+
+from __future__ import annotations
+
+import importlib
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from gdabench.plugins import Registry
+
+FIXTURE = Path(__file__).parent / "fixtures" / "faulty_plugin"
+
+
+@pytest.fixture(scope="session")
+def faulty_site(tmp_path_factory) -> Path:
+    """A directory holding the faulty plugin package (environments that fail on purpose), for PYTHONPATH."""
+    src = tmp_path_factory.mktemp("src") / "faulty_plugin"
+    shutil.copytree(FIXTURE, src)
+    site = tmp_path_factory.mktemp("site")
+    cmd = [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation", "--target", str(site), str(src)]
+    subprocess.run(cmd, check=True, capture_output=True)
+    return site
+
+
+@pytest.fixture
+def reg(faulty_site, monkeypatch) -> Registry:
+    """A registry with the built-ins and the faulty plugin, importable by worker processes too."""
+    monkeypatch.syspath_prepend(str(faulty_site))
+    return Registry(entry_points=False, extra_plugins={"faulty": importlib.import_module("gdabench_faulty.plugin")})

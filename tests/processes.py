@@ -1,0 +1,34 @@
+"""Running ``gdabench`` as a real process, and reading its run directories for comparison."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+from gdabench.results import RunDirectory
+
+#: columns that legitimately differ between two runs of the same command
+TIMING = ["run_id", "eval_seconds", "design_seconds", "elapsed_seconds", "timestamp"]
+
+
+def cli(*args: str, site: Path, env: dict | None = None, background: bool = False, timeout: float = 300) -> subprocess.Popen | subprocess.CompletedProcess:
+    """``python -m gdabench *args`` with the faulty plugin importable (``env`` adds variables)."""
+    environ = dict(os.environ, COLUMNS="200", PYTHONPATH=os.pathsep.join(filter(None, [str(site), os.environ.get("PYTHONPATH")])), **(env or {}))
+    command = [sys.executable, "-m", "gdabench", *args]
+    if background:
+        return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environ)
+    return subprocess.run(command, capture_output=True, text=True, env=environ, timeout=timeout)
+
+
+def table(run_dir: Path, drop=()) -> pd.DataFrame:
+    """A run's rows without the columns that differ between identical runs."""
+    frame = RunDirectory.open(run_dir).load_evaluations()
+    return frame.drop(columns=[*TIMING, *drop]).reset_index(drop=True)
+
+
+def error_lines(result: subprocess.CompletedProcess) -> list[str]:
+    return [line for line in result.stderr.splitlines() if line.strip()]

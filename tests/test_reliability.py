@@ -1,0 +1,256 @@
+"""A run directory cannot be corrupted: one writer, kills at every phase, readers mid-run, full
+disks, signals, and every input error refused in one line before anything is made.
+
+Most tests drive real ``gdabench`` processes (``python -m gdabench``) on the faulty plugin's
+``faulty`` environment, slowed by ``GDABENCH_FAULTY_DELAY`` where a test must act mid-run.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from gdabench.cli import app
+from gdabench.faults import POINTS
+from gdabench.results import RunDirectory
+from processes import cli, error_lines, table
+
+ARGS = ["compare", "-d", "ga,random", "--env", "faulty", "--budget", "60", "--population", "10", "--seeds", "0,1", "-q", "--no-report"]
+SLOW = {"GDABENCH_FAULTY_DELAY": "0.03"}
+
+
+@pytest.fixture(scope="module")
+def reference(faulty_site, tmp_path_factory) -> pd.DataFrame:
+    """The uninterrupted table every damaged-then-resumed run must equal."""
+    out = tmp_path_factory.mktemp("reference") / "run"
+    result = cli(*ARGS, "--out", str(out), site=faulty_site)
+    assert result.returncode == 0, result.stderr
+    return table(out)
+
+
+def wait_for(predicate, proc: subprocess.Popen, what: str, limit: float = 120) -> None:
+    deadline = time.monotonic() + limit
+    while not predicate():
+        assert proc.poll() is None, f"the run ended before {what}: {proc.communicate()}"
+        assert time.monotonic() < deadline, f"no {what} within {limit} s"
+        time.sleep(0.02)
+
+
+def started(out: Path) -> bool:
+    return len(list(out.glob("pending/*/gen-*.parquet"))) >= 1
+
+
+def assert_whole(out: Path, reference: pd.DataFrame) -> None:
+    got = table(out)
+    assert not got.duplicated(["designer", "seed", "generation", "index"]).any()
+    pd.testing.assert_frame_equal(got, reference)
+    assert RunDirectory.open(out).meta["status"] == "complete"
+    assert not (out / "pending").exists() and not (out / "checkpoints").exists()
+    assert not list(out.rglob("*.tmp"))
+
+
+# -- one writer ---------------------------------------------------------------------------------
+def test_a_second_writer_is_refused_while_a_run_is_going(tmp_path, faulty_site, reference):
+    out = tmp_path / "run"
+    proc = cli(*ARGS, "--out", str(out), site=faulty_site, env=SLOW, background=True)
+    try:
+        wait_for(lambda: started(out), proc, "a first generation")
+        meta = RunDirectory.open(out).meta
+        for args in (["compare", "--resume", str(out), "-q"], [*ARGS, "--out", str(out)]):
+            second = cli(*args, site=faulty_site)
+            assert second.returncode == 2, second.stderr
+            lines = error_lines(second)
+            assert len(lines) == 1 and lines[0].startswith("error: "), second.stderr
+            assert f"run {out} is being written by process {proc.pid} on " in lines[0] or "already exists and is not empty" in lines[0]
+        assert proc.wait(timeout=300) == 0, proc.communicate()
+    finally:
+        proc.kill()
+    after = RunDirectory.open(out).meta
+    assert (after["run_id"], after["command"], after.get("resumed")) == (meta["run_id"], meta["command"], None)  # untouched by the others
+    assert_whole(out, reference)
+
+
+def test_concurrent_resumes_leave_one_writer(tmp_path, faulty_site, reference):
+    out = tmp_path / "run"
+    proc = cli(*ARGS, "--out", str(out), site=faulty_site, env=SLOW, background=True)
+    wait_for(lambda: started(out), proc, "a first generation")
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    resumes = [cli("compare", "--resume", str(out), "-q", "--no-report", site=faulty_site, env=SLOW, background=True) for _ in range(3)]
+    results = [(r.wait(timeout=300), r.communicate()[1]) for r in resumes]
+    codes = sorted(code for code, _ in results)
+    assert codes == [0, 2, 2], results
+    for code, err in results:
+        if code == 2:
+            assert "is being written by process" in err and err.count("\n") == 1, err
+    assert_whole(out, reference)
+
+
+def test_identical_runs_started_at_once_on_one_directory(tmp_path, faulty_site, reference):
+    out = tmp_path / "run"
+    procs = [cli(*ARGS, "--out", str(out), site=faulty_site, env=SLOW, background=True) for _ in range(2)]
+    results = [(p.wait(timeout=300), p.communicate()[1]) for p in procs]
+    assert sorted(code for code, _ in results) == [0, 2], results
+    loser = next(err for code, err in results if code == 2)
+    assert ("is being written by process" in loser or "already exists and is not empty" in loser) and loser.count("\n") == 1
+    assert_whole(out, reference)
+
+
+def test_labels_that_share_a_file_name_are_refused(tmp_path, faulty_site):
+    result = cli("compare", "-d", "ga[survivors=5],ga[survivors=5 ]", "--out", str(tmp_path / "run"), "-q", site=faulty_site)
+    assert result.returncode == 2 and "map to the same file name" in result.stderr and not (tmp_path / "run").exists()
+
+
+# -- kills at every phase -------------------------------------------------------------------------
+@pytest.mark.parametrize("point", POINTS)
+def test_a_kill_at_every_phase_of_finishing_a_generation_or_trial_resumes_whole(point, tmp_path, faulty_site, reference):
+    out = tmp_path / "run"
+    dead = cli(*ARGS, "--jobs", "1", "--out", str(out), site=faulty_site, env={"GDABENCH_FAULT": f"{point}:2"})
+    assert dead.returncode == -signal.SIGKILL, dead.stderr
+    assert RunDirectory.open(out).meta["status"] == "running"  # as the kill left it
+    RunDirectory.open(out).load_evaluations()  # readable as it is
+    resumed = cli("compare", "--resume", str(out), "-q", "--no-report", site=faulty_site)
+    assert resumed.returncode == 0, resumed.stderr
+    assert_whole(out, reference)
+
+
+def test_readers_see_a_consistent_snapshot_while_trials_finish(tmp_path, faulty_site, reference):
+    out = tmp_path / "run"
+    proc = cli(*ARGS, "--out", str(out), site=faulty_site, env={"GDABENCH_FAULTY_DELAY": "0.005"}, background=True)
+    reads, seen = 0, pd.Series(dtype=int)
+    try:
+        wait_for(lambda: (out / "run.json").exists(), proc, "run.json")
+        while proc.poll() is None:
+            frame = RunDirectory.open(out).load_evaluations()
+            assert not frame.duplicated(["designer", "seed", "generation", "index"]).any()
+            counts = frame.groupby(["designer", "seed"]).size()
+            assert (counts.reindex(seen.index, fill_value=0).to_numpy() >= seen.to_numpy()).all()  # no trial's rows ever vanish
+            seen, reads = counts, reads + 1
+    finally:
+        proc.kill()
+    assert proc.returncode == 0 and reads > 10
+    assert_whole(out, reference)
+
+
+# -- signals ----------------------------------------------------------------------------------------
+def test_sigterm_is_an_interruption_and_resumes(tmp_path, faulty_site, reference):
+    out = tmp_path / "run"
+    proc = cli(*ARGS, "--out", str(out), site=faulty_site, env=SLOW, background=True)
+    wait_for(lambda: started(out), proc, "a first generation")
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: terminated") and f"gdabench compare --resume {out}" in lines[0]
+    meta = RunDirectory.open(out).meta
+    assert meta["status"] == "interrupted" and "SIGTERM" in meta["error"]
+    assert cli("compare", "--resume", str(out), "-q", "--no-report", site=faulty_site).returncode == 0
+    assert_whole(out, reference)
+
+
+def test_ctrl_c_pressed_again_and_again_gives_one_line(tmp_path, faulty_site):
+    out = tmp_path / "run"
+    proc = cli(*ARGS, "--out", str(out), site=faulty_site, env=SLOW, background=True)
+    wait_for(lambda: started(out), proc, "a first generation")
+    for _ in range(4):
+        proc.send_signal(signal.SIGINT)
+        time.sleep(0.003)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and [line for line in err.splitlines() if line.strip()][0].startswith("error: interrupted"), err
+    assert RunDirectory.open(out).meta["status"] == "interrupted"
+
+
+# -- a full disk --------------------------------------------------------------------------------------
+@pytest.fixture
+def small_disk(tmp_path):
+    mount = tmp_path / "disk"
+    mount.mkdir()
+    made = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=600k", "tmpfs", str(mount)], capture_output=True)
+    if made.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs here ({made.stderr.decode().strip() or 'not permitted'})")
+    yield mount
+    subprocess.run(["umount", "-l", str(mount)], capture_output=True)
+
+
+def test_a_full_disk_fails_the_run_in_one_line_and_keeps_what_was_written(small_disk, faulty_site):
+    out = small_disk / "run"
+    result = cli("compare", "-d", "ga,random", "--env", "faulty", "--budget", "5000", "--seeds", "0..3", "-q", "--no-report",
+                 "--jobs", "1", "--out", str(out), site=faulty_site)
+    assert result.returncode == 1, result.stderr
+    lines = error_lines(result)
+    assert len(lines) == 1 and lines[0].startswith(f"error: no space left on the device of {out}"), result.stderr
+    run = RunDirectory.open(out)
+    assert run.meta["status"] == "failed" and "no space left" in run.meta["error"]
+    assert len(run.load_evaluations()) > 0 and not list(out.rglob("*.tmp"))
+
+
+# -- input errors: one line, exit 2, nothing made ----------------------------------------------------
+BAD_INPUT = [
+    (["-d", "ga[survivors=abc]"], "designer 'ga[survivors=abc]': parameter 'survivors' must be an integer or null, got 'abc'"),
+    (["-d", "ga[survivors=[5]]"], "parameter 'survivors' must be an integer or null, got [5]"),
+    (["-d", "ga[survivors=2.5]"], "parameter 'survivors' must be an integer or null, got 2.5"),
+    (["-d", "ga[survivors=true]"], "parameter 'survivors' must be an integer or null, got True"),
+    (["-d", "ga[attempts=1.5]"], "parameter 'attempts' must be an integer, got 1.5"),
+    (["-d", "ga[mutation_rate=high]"], "parameter 'mutation_rate' must be a number, got 'high'"),
+    (["-d", "cppn[config=5]"], "cppn: cannot read config file '5'"),
+    (["-d", "ga", "--seeds", "99999999999999999999"], "seed must be an integer from 0 to 4294967295"),
+    (["-d", "ga", "--seeds", "0..100000000000"], "at most 10000 are allowed"),
+    (["-d", "ga", "--population", "1000000000", "--budget", "1000000000"], "population must be an integer from 1 to 10,000"),
+    (["-d", "cppn", "--population", "1000000000"], "population must be an integer from 1 to 10,000"),
+    (["-d", "ga", "--budget", "100000000000"], "budget must be an integer from 1 to 10,000,000"),
+    (["-d", "ga", "--shape", "100x100"], "shape must be two sides from 1 to 64 voxels"),
+    (["-d", "ga", "--env", "walker", "--controller", "open-loop[trials=-1]"], "open-loop: trials must be a positive integer, got -1"),
+    (["-d", "ga", "--jobs", "0"], "jobs must be a positive integer"),
+]
+
+
+@pytest.mark.parametrize("args, fragment", BAD_INPUT, ids=[" ".join(a) for a, _ in BAD_INPUT])
+def test_bad_input_is_one_line_exit_2_and_makes_nothing(tmp_path, args, fragment):
+    out = tmp_path / "run"
+    result = CliRunner().invoke(app, ["compare", *args, "--out", str(out), "-q"], env={"COLUMNS": "300"})
+    assert result.exit_code == 2, result.stderr
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], result.stderr
+    assert not out.exists()
+
+
+def test_evaluate_and_compare_agree_on_bad_input():
+    for args in (["--seed", "-1"], ["--env", "walker", "--controller", "open-loop[trials=-1]"]):
+        result = CliRunner().invoke(app, ["evaluate", "44444/44444/44444/44444/44444", *args], env={"COLUMNS": "300"})
+        lines = [line for line in result.stderr.splitlines() if line.strip()]
+        assert result.exit_code == 2 and len(lines) == 1 and lines[0].startswith("error: "), result.stderr
+
+
+def test_output_paths_that_cannot_be_a_run_directory(tmp_path):
+    a_file = tmp_path / "file"
+    a_file.write_text("x")
+    cases = {a_file: "exists and is not a directory", a_file / "run": "which is not a directory", Path("/proc/gdabench-run"): "cannot create"}
+    for out, fragment in cases.items():
+        result = CliRunner().invoke(app, ["compare", "-d", "random", "--out", str(out), "-q"], env={"COLUMNS": "300"})
+        lines = [line for line in result.stderr.splitlines() if line.strip()]
+        assert result.exit_code == 2 and len(lines) == 1 and fragment in lines[0], (out, result.stderr)
+
+
+@pytest.mark.parametrize("content, fragment", [("[1, 2]", "is not a JSON object"), ('{"format": "gdabench-run/1"}', "has no 'config' table")])
+def test_a_damaged_run_json_is_one_line(tmp_path, content, fragment):
+    (tmp_path / "run.json").write_text(content)
+    for command in (["compare", "--resume", str(tmp_path)], ["report", str(tmp_path)]):
+        result = CliRunner().invoke(app, command, env={"COLUMNS": "300"})
+        assert result.exit_code == 2 and fragment in result.stderr and result.stderr.count("\n") == 1, result.stderr
+
+
+def test_usage_errors_are_one_line_too():
+    for args in (["compare", "--budget", "abc"], ["compare", "--nope"], ["frobnicate"]):
+        result = subprocess.run([sys.executable, "-m", "gdabench", *args], capture_output=True, text=True, env=dict(os.environ, COLUMNS="300"))
+        lines = [line for line in result.stderr.splitlines() if line.strip()]
+        assert result.returncode == 2 and len(lines) == 1 and lines[0].startswith("error: "), result.stderr
