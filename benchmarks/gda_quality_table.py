@@ -1,4 +1,4 @@
-"""Print the gda quality table (README) from one or more run directories.
+"""Print the gda quality table (docs/benchmarks/gda.md) from one or more run directories.
 
 Runs split over several directories (e.g. seeds 0..4 and 5..9 of one setting run in parallel)
 are pooled by designer label before summarising, so every row covers all of its seeds::

@@ -1,0 +1,78 @@
+"""What the documentation promises and the site build cannot check.
+
+The README's quick start is CI's test command and the main job; its table is the committed reference
+run's; its designer sketch and the plugin guide's example (docs/examples/gdabench-checkerboard) work.
+Broken links, anchors and API references are the job of ``mkdocs build --strict`` in .ci/run.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from test_plugins import gdabench_cli, pip_install
+
+ROOT = Path(__file__).resolve().parents[1]
+README = (ROOT / "README.md").read_text()
+MAIN_JOB = "gdabench compare --designers ga,cppn,gda --env simple"
+EXAMPLE = ROOT / "docs" / "examples" / "gdabench-checkerboard"
+
+
+def bash_blocks(text: str) -> list[str]:
+    return [block.strip() for block in re.findall(r"```bash\n(.*?)```", text, re.S)]
+
+
+def test_quick_start_is_the_main_job_and_cis_test_command():
+    main_job, tests = bash_blocks(README.split("## Quick start", 1)[1])[:2]
+    assert main_job == f"python3 -m venv .venv && . .venv/bin/activate && pip install torch==2.13.0 && pip install -e . && {MAIN_JOB}"
+    ci_lines = (ROOT / ".ci" / "run").read_text().splitlines()
+    assert tests in ci_lines, "README's test command and .ci/run's must be identical"
+
+
+def test_readme_table_is_the_reference_runs():
+    summary = (ROOT / "results" / "reference" / "simple" / "report" / "summary.md").read_text()
+    table = re.search(r"## Summary per designer\n\n((?:\|.*\n)+)", summary).group(1)
+    assert table in README, "regenerated reference run: copy its table (report/summary.md) into the README"
+    assert "results/reference/simple/report/best_so_far.png" in README
+
+
+def test_readme_designer_sketch_conforms(tmp_path, monkeypatch):
+    code = re.search(r"```python\n(import gdabench\n\nclass (\w+)\(gdabench\.Designer\).*?)```", README, re.S)
+    assert code, "the README's designer sketch is gone"
+    (tmp_path / "readme_sketch.py").write_text(code.group(1))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    from gdabench.testing import check_designer
+
+    check_designer(getattr(__import__("readme_sketch"), code.group(2)))
+
+
+@pytest.fixture(scope="module")
+def example_site(tmp_path_factory) -> Path:
+    return pip_install(EXAMPLE, tmp_path_factory.mktemp("site"))
+
+
+def test_plugin_guide_example_passes_its_own_tests(example_site):
+    env = dict(os.environ, PYTHONPATH=str(example_site))
+    result = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(EXAMPLE / "tests")],
+        capture_output=True, text=True, env=env, cwd=EXAMPLE,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_plugin_guide_example_runs_in_compare(example_site, tmp_path):
+    out = tmp_path / "run"
+    run = gdabench_cli(
+        "compare", "--designers", "hill-climber,random", "--env", "checkerboard", "--budget", "100",
+        "--out", str(out), "-q", "--no-report", path=example_site,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    assert json.loads((out / "run.json").read_text())["versions"]["plugins"]["gdabench-checkerboard"] == "0.1.0"
+    bad = gdabench_cli("run", "hill-climber[rate=2]", "--env", "checkerboard", "--out", str(tmp_path / "bad"), path=example_site)
+    assert bad.returncode == 2 and "hill-climber: rate must be in (0, 1]" in bad.stderr
