@@ -29,16 +29,15 @@ from .envs import walker as _walker  # noqa: F401,E402 - registers gdabench/Walk
 __version__ = "0.1.0"
 
 
+_LAZY = {"compare": "api", "open_run": "api", "Run": "api", "RunDirectory": "results", "RunListener": "events"}
+
+
 def __getattr__(name: str) -> Any:
     """Import the pandas-based parts on first use, so worker processes start quickly."""
-    if name == "compare":
-        from .runner import compare
+    if name in _LAZY:
+        import importlib
 
-        return compare
-    if name == "RunDirectory":
-        from .results import RunDirectory
-
-        return RunDirectory
+        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
     raise AttributeError(f"module 'gdabench' has no attribute {name!r}")
 
 
@@ -77,7 +76,9 @@ __all__ = [
     "PluginChoice",
     "PluginError",
     "RIGID",
+    "Run",
     "RunDirectory",
+    "RunListener",
     "RunDirectoryError",
     "SOFT",
     "UnknownPluginError",
@@ -90,6 +91,7 @@ __all__ = [
     "make_designer",
     "make_env",
     "mutate",
+    "open_run",
     "random_body",
     "ranking_rewards",
     "registry",

@@ -19,7 +19,6 @@ from typing import Annotated, Any, Callable, Optional, get_type_hints
 import typer
 from rich.console import Console
 from rich.markup import escape
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskID, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
 from .body import parse_shape
@@ -28,12 +27,13 @@ from .errors import ConfigError, GdabenchError, RunFailure, Terminated
 from .execution.options import Execution
 from .plugins import KINDS, registry
 from .report.diversity import NEAR_COPY, SURVIVORS
-from .report.summary import failure_counts, summarize
+from .report.summary import failure_counts, summarize, thresholds
 from .report.tables import summary_cells
 from .results import RunDirectory
-from .runner import RunListener, compare as run_compare, default_out_dir
-from .plan import TrialSpec
-from .trial import GenerationResult
+from .loggers import make_logger
+from .experiment_file import ExperimentFile, load as load_experiment
+from .progress import ProgressDisplay
+from .runner import compare as run_compare, default_out_dir
 
 try:  # typer >= 0.2x carries its own copy of click
     from typer._click import exceptions as click_errors
@@ -50,7 +50,7 @@ app = typer.Typer(
 console = Console()
 err_console = Console(stderr=True)
 
-KIND_ALIASES = {"designers": "designer", "envs": "environment", "environments": "environment", "controllers": "controller"}
+KIND_ALIASES = {"designers": "designer", "envs": "environment", "environments": "environment", "controllers": "controller", "suites": "suite"}
 
 
 def _fail(message: str, code: int) -> typer.Exit:
@@ -86,28 +86,31 @@ class _Guard:
 
 
 # -- list, info ---------------------------------------------------------------------------------
-def _kinds(kind: str | None) -> tuple[str, ...]:
+def _kinds(kind: str | None, suites: bool = False) -> tuple[str, ...]:
+    known = (*KINDS, "suite") if suites else KINDS
     if kind is None:
-        return KINDS
-    if KIND_ALIASES.get(kind, kind) not in KINDS:
-        raise ConfigError(f"unknown kind {kind!r}; choose designers, envs or controllers")
+        return known
+    if KIND_ALIASES.get(kind, kind) not in known:
+        raise ConfigError(f"unknown kind {kind!r}; choose designers, envs, controllers" + (" or suites" if suites else ""))
     return (KIND_ALIASES.get(kind, kind),)
 
 
 @app.command("list")
 def list_plugins(
-    kind: Annotated[Optional[str], typer.Argument(help="designers, envs or controllers (default: all)")] = None,
+    kind: Annotated[Optional[str], typer.Argument(help="designers, envs, controllers or suites (default: all)")] = None,
 ) -> None:
-    """Show every installed designer, environment and controller, and the package it comes from."""
+    """Show every installed designer, environment, controller and suite, and the package it comes from."""
     with _Guard():
         reg = registry()
-        for k in _kinds(kind):
+        for k in _kinds(kind, suites=True):
             table = Table(title=f"{k}s", title_justify="left", show_edge=False)
             table.add_column("name", style="bold")
             table.add_column("description")
             table.add_column("package")
             for item in reg.items(k):  # type: ignore[arg-type]
-                table.add_row(escape(item.name), escape(item.spec.description), escape(f"{item.distribution} {item.version}".strip()))
+                spec = item.spec
+                description = spec.description + (f" ({', '.join(spec.envs)}{f'; controller {spec.controller}' if spec.controller else ''})" if k == "suite" else "")
+                table.add_row(escape(item.name), escape(description), escape(f"{item.distribution} {item.version}".strip()))
             console.print(table)
 
 
@@ -141,9 +144,15 @@ def _option(*names: str, help: str) -> Any:
 
 @dataclass
 class RunOptions:
-    """The options ``compare`` and ``run`` share (typer reads them from :data:`RUN_OPTIONS`)."""
+    """The options ``compare`` and ``run`` share (typer reads them from :data:`RUN_OPTIONS`).
 
+    ``explicit`` names the options given on the command line: they override an experiment file
+    (``--config``), which overrides the defaults.
+    """
+
+    config: Optional[Path] = None
     env: str = "simple"
+    suite: Optional[str] = None
     controller: Optional[str] = None
     budget: int = 1000
     population: int = 25
@@ -162,35 +171,63 @@ class RunOptions:
     cache: Optional[Path] = None
     resume: Optional[Path] = None
     stop_at_optimum: bool = False
+    log: Optional[list[str]] = None
     quiet: bool = False
     no_report: bool = False
+    explicit: frozenset[str] = frozenset()  # filled in by with_run_options
 
-    def experiment(self, designers: str) -> Experiment:
-        env = PluginChoice.parse(self.env).with_params(parse_params(self.env_param, "environment parameter"))
-        controller = None
-        if self.controller:
-            controller = PluginChoice.parse(self.controller).with_params(parse_params(self.controller_param, "controller parameter"))
-        elif self.controller_param:
-            raise ConfigError("--controller-param given without --controller")
+    def file(self) -> ExperimentFile:
+        return load_experiment(self.config) if self.config is not None else ExperimentFile(None)
+
+    def _given(self, name: str, from_file: Any) -> Any:
+        """The option's value: as given on the command line, else from the file, else the default."""
+        return getattr(self, name) if name in self.explicit or from_file is None else from_file
+
+    def experiment(self, designers: str, base: ExperimentFile) -> Experiment:
+        reg = registry()
+        suite = reg.get("suite", self.suite if "suite" in self.explicit else base.suite).spec if (self.suite or base.suite) else None
+        if "env" in self.explicit:
+            envs = tuple(PluginChoice.parse_list(self.env))
+        elif "suite" in self.explicit or (base.envs is None and suite is not None):
+            envs = tuple(PluginChoice.parse(e) for e in suite.envs)  # type: ignore[union-attr]
+        else:
+            envs = base.envs or (PluginChoice.parse(self.env),)
+        env_params = parse_params(self.env_param, "environment parameter")
+        controller = PluginChoice.parse(self.controller) if "controller" in self.explicit and self.controller else base.controller
+        if controller is None and suite is not None and suite.controller:
+            controller = PluginChoice.parse(suite.controller)
+        if self.controller_param:
+            if controller is None:
+                raise ConfigError("--controller-param given without --controller")
+            controller = controller.with_params(parse_params(self.controller_param, "controller parameter"))
+        chosen = PluginChoice.parse_list(designers) if designers else list(base.designers or ())
+        seeds = base.seeds if not ({"seeds", "repetitions"} & self.explicit) and base.seeds else parse_seeds(self.seeds, self.repetitions)
         return Experiment(
-            designers=tuple(_designer_choices(designers, self.designer_param)),
-            envs=(env,),
+            designers=tuple(_with_designer_params(chosen, self.designer_param)),
+            envs=tuple(e.with_params(env_params) for e in envs),
             controller=controller,
-            shape=parse_shape(self.shape),
-            population=self.population,
-            budget=self.budget,
-            seeds=tuple(parse_seeds(self.seeds, self.repetitions)),
-            stop_at_optimum=self.stop_at_optimum,
+            shape=parse_shape(self.shape) if "shape" in self.explicit or base.shape is None else base.shape,
+            population=self._given("population", base.population),
+            budget=self._given("budget", base.budget),
+            seeds=tuple(seeds),
+            stop_at_optimum=self._given("stop_at_optimum", base.stop_at_optimum),
         )
 
-    def execution(self) -> Execution:
-        cache = str(self.cache) if self.cache is not None else None
-        return Execution(self.executor, self.jobs, self.workers, self.timeout, self.ray_address, cache)
+    def execution(self, base: ExperimentFile) -> Execution:
+        values = {**base.execution}
+        for name in ("jobs", "workers", "executor", "timeout", "ray_address", "cache"):
+            if name in self.explicit or name not in values:
+                values[name] = getattr(self, name)
+        if values["cache"] is not None:
+            values["cache"] = str(values["cache"])
+        return Execution(**values)
 
 
 #: typer's view of RunOptions: option names and help, in the order --help lists them
 RUN_OPTIONS: dict[str, Any] = {
-    "env": _option("--env", "-e", help="Environment, optionally with parameters: name[key=value,...]."),
+    "config": _option("--config", help="An experiment file (TOML, or a run's run.json to repeat it); options given here override it."),
+    "env": _option("--env", "-e", help="Environment(s), each name or name[key=value,...]; several run as a suite: simple,nk[k=4]."),
+    "suite": _option("--suite", help="A named suite of environments (gdabench list suites), instead of --env."),
     "controller": _option("--controller", "-c", help="Controller for physics environments, e.g. ppo or open-loop[period=30]."),
     "budget": _option("--budget", help="Evaluations per trial (unique valid bodies)."),
     "population": _option("--population", help="Bodies per generation."),
@@ -209,6 +246,7 @@ RUN_OPTIONS: dict[str, Any] = {
     "cache": _option("--cache", help="Directory of an evaluation cache shared across runs (deterministic environments)."),
     "resume": _option("--resume", help="Continue the run in this directory (its experiment is taken from it; execution options may change)."),
     "stop_at_optimum": _option("--stop-at-optimum", help="End each trial once it reaches the environment's optimum."),
+    "log": _option("--log", help="Log each generation's figures to a tracker: tensorboard (writes RUN_DIR/tensorboard)."),
     "quiet": _option("--quiet", "-q", help="No progress display."),
     "no_report": _option("--no-report", help="Only print the summary table; do not write the report (plots, HTML)."),
 }
@@ -218,24 +256,26 @@ def with_run_options(command: Callable[..., None]) -> Callable[..., None]:
     """Give ``command(..., options: RunOptions)`` the shared options as typer parameters."""
     own = [p for p in inspect.signature(command, eval_str=True).parameters.values() if p.name != "options"]
     types = get_type_hints(RunOptions)
+    names = [f.name for f in fields(RunOptions) if f.name in RUN_OPTIONS]
     shared = [
-        inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, default=f.default, annotation=Annotated[types[f.name], RUN_OPTIONS[f.name]])
-        for f in fields(RunOptions)
+        inspect.Parameter(n, inspect.Parameter.KEYWORD_ONLY, default=RunOptions.__dataclass_fields__[n].default, annotation=Annotated[types[n], RUN_OPTIONS[n]])
+        for n in names
     ]
+    context = inspect.Parameter("ctx", inspect.Parameter.KEYWORD_ONLY, annotation=typer.Context)
 
-    def wrapper(**kwargs: Any) -> None:
-        options = RunOptions(**{f.name: kwargs.pop(f.name) for f in fields(RunOptions)})
+    def wrapper(ctx: typer.Context, **kwargs: Any) -> None:
+        given = frozenset(n for n in names if getattr(ctx.get_parameter_source(n), "name", "DEFAULT") not in ("DEFAULT", "DEFAULT_MAP"))
+        options = RunOptions(**{n: kwargs.pop(n) for n in names}, explicit=given)
         command(**kwargs, options=options)
 
     wrapper.__name__, wrapper.__doc__ = command.__name__, command.__doc__
-    wrapper.__signature__ = inspect.Signature([*own, *shared])  # type: ignore[attr-defined]
+    wrapper.__signature__ = inspect.Signature([*own, context, *shared])  # type: ignore[attr-defined]
     return wrapper
 
 
-def _designer_choices(designers: str, designer_params: list[str] | None) -> list[PluginChoice]:
-    choices = PluginChoice.parse_list(designers)
+def _with_designer_params(choices: list[PluginChoice], designer_params: list[str] | None) -> list[PluginChoice]:
     if not choices:
-        raise ConfigError("no designer given")
+        raise ConfigError("give --designers, e.g. --designers ga,cppn,gda (or designers in --config)")
     shared: dict[str, Any] = {}
     targeted: dict[str, dict[str, Any]] = {}
     for item in designer_params or []:
@@ -250,45 +290,11 @@ def _designer_choices(designers: str, designer_params: list[str] | None) -> list
     return [c.with_params({**shared, **targeted.get(c.name, {}), **targeted.get(c.label, {})}) for c in choices]
 
 
-class _Display(RunListener):
-    """A progress display: one bar for the whole run and one line per running trial."""
-
-    def __init__(self, experiment: Experiment, done: dict[tuple[str, str, int], int], quiet: bool):
-        self.budget, self.quiet = experiment.budget, quiet
-        self.done = done
-        self.progress = Progress(
-            TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("evaluations"),
-            TimeElapsedColumn(), TimeRemainingColumn(), console=err_console, disable=quiet,
-        )  # fmt: skip
-        trials = len(experiment.designers) * len(experiment.envs) * len(experiment.seeds)
-        self.total = self.progress.add_task("all trials", total=trials * self.budget, completed=sum(done.values()))
-        self.lines: dict[int, TaskID] = {}
-
-    def trial_started(self, spec: TrialSpec) -> None:
-        if not self.progress.live.is_started:  # started late so that set-up errors print alone
-            self.progress.start()
-        done = self.done.get(spec.key, 0)
-        self.lines[spec.index] = self.progress.add_task(escape(f"  {spec.title}"), total=self.budget, completed=done)
-
-    def generation(self, spec: TrialSpec, result: GenerationResult) -> None:
-        report = result.report
-        self.done[spec.key] = report.n_evals
-        best = "-" if report.best != report.best else f"{report.best:.4g}"
-        self.progress.update(self.lines[spec.index], completed=report.n_evals, description=escape(f"  {spec.title} gen {report.generation} best {best}"))
-        self.progress.update(self.total, completed=sum(self.done.values()))
-
-    def trial_finished(self, spec: TrialSpec, error: str | None) -> None:
-        task = self.lines.pop(spec.index, None)
-        if task is not None:
-            self.progress.remove_task(task)
-        if error is not None and not self.quiet:  # the run's last line names failed trials too
-            self.progress.console.print(escape(f"trial {spec.title} failed: {error}"), style="red", highlight=False)
-
-
 def _execute(designers: str, options: RunOptions) -> None:
     guard = _Guard(options.resume or options.out)
     with guard:
-        execution = options.execution()
+        base = options.file()
+        execution = options.execution(base)
         done: dict[tuple[str, str, int], int] = {}
         if options.resume is not None:
             run = RunDirectory.open(options.resume)
@@ -297,17 +303,15 @@ def _execute(designers: str, options: RunOptions) -> None:
             if len(frame):
                 done = {(str(k[0]), str(k[1]), int(k[2])): int(v) for k, v in frame.groupby(["env", "designer", "seed"])["n_evals"].max().items()}
         else:
-            if not designers:
-                raise ConfigError("give --designers, e.g. --designers ga,cppn,gda")
-            experiment = options.experiment(designers)
-        out = options.resume or options.out or default_out_dir(experiment)
+            experiment = options.experiment(designers, base)
+        out = options.resume or (options.out if "out" in options.explicit or base.out is None else base.out) or default_out_dir(experiment)
         guard.run_dir = out
-        display = _Display(experiment, done, options.quiet)
-        try:
+        reg = registry()
+        for name in dict.fromkeys(options.log or []):
+            reg.pm.register(make_logger(name), name=f"gdabench-log-{name}")
+        with ProgressDisplay(experiment, done, console=err_console, quiet=options.quiet) as display:
             run = run_compare(experiment, out, resume=options.resume is not None, execution=execution, listener=display,
-                              command=["gdabench", *sys.argv[1:]])
-        finally:
-            display.progress.stop()
+                              command=["gdabench", *sys.argv[1:]], reg=reg)
         for env, reason in _uncached(run, execution):
             err_console.print(f"[yellow]note:[/] {escape(reason)}; the evaluation cache was not used for {escape(env)}", highlight=False)
     if not options.no_report:
@@ -351,7 +355,7 @@ def _print_table(title: str, headers: list[str], rows: list[list[str]]) -> None:
 
 
 def _print_summary(run: RunDirectory) -> None:
-    summary = summarize(run.load_evaluations(), run.meta.get("env_optimum"))
+    summary = summarize(run.load_evaluations(), thresholds(run.meta))
     _print_table(f"summary ({run.path})", *summary_cells(summary, compact=True))
 
 
@@ -411,7 +415,7 @@ def evaluate(
         check_seed(seed)
         options = RunOptions(env=env, controller=controller, env_param=env_param, controller_param=controller_param,
                              shape=f"{parsed.shape[0]}x{parsed.shape[1]}", population=1, budget=1)
-        plan = Plan.resolve(options.experiment("random"), registry(), designers=False)
+        plan = Plan.resolve(options.experiment("random", ExperimentFile(None)), registry(), designers=False)
         scorer, _ = plan.scorers()
         reason = scorer.invalid_reason(parsed)
         if reason is not None:

@@ -20,18 +20,20 @@ import pluggy
 
 from . import hookspecs
 from .errors import PluginError, UnknownPluginError
-from .specs import ControllerSpec, DesignerSpec, EnvironmentSpec, Spec
+from .specs import ControllerSpec, DesignerSpec, EnvironmentSpec, Spec, SuiteSpec
 
-Kind = Literal["designer", "environment", "controller"]
+Kind = Literal["designer", "environment", "controller", "suite"]
+#: the kinds of plugin objects (suites are named sets of environments, listed with them)
 KINDS: tuple[Kind, ...] = ("designer", "environment", "controller")
 
 #: built-in plugin modules, registered under the ``gdabench`` distribution
 BUILTIN_PLUGINS = ("gdabench.designers", "gdabench.envs", "gdabench.controllers")
 
-_HOOKS: dict[Kind, tuple[str, type[Spec]]] = {
+_HOOKS: dict[Kind, tuple[str, type]] = {
     "designer": ("gdabench_designers", DesignerSpec),
     "environment": ("gdabench_environments", EnvironmentSpec),
     "controller": ("gdabench_controllers", ControllerSpec),
+    "suite": ("gdabench_suites", SuiteSpec),
 }
 
 
@@ -39,7 +41,7 @@ _HOOKS: dict[Kind, tuple[str, type[Spec]]] = {
 class Registered:
     """A spec together with where it came from."""
 
-    spec: Spec
+    spec: Spec | SuiteSpec
     plugin: str
     distribution: str
     version: str
@@ -70,7 +72,7 @@ class Registry:
         if entry_points:
             self._load_entry_points()
         self._check_hooks()
-        self._items: dict[Kind, dict[str, Registered]] = {kind: self._collect(kind) for kind in KINDS}
+        self._items: dict[Kind, dict[str, Registered]] = {kind: self._collect(kind) for kind in _HOOKS}
 
     # -- loading -----------------------------------------------------------------------------
     def _register(self, plugin: Any, name: str, dist: str, version: str) -> None:

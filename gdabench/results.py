@@ -340,11 +340,11 @@ class RunDirectory:
         frames += [f for f in pending if tuple(f[TRIAL_KEY].iloc[0]) not in done]
         if not frames:
             return pd.DataFrame({c: pd.Series(dtype=object) for c in COLUMNS})
-        return _core_first(pd.concat(frames, ignore_index=True))
+        return core_first(pd.concat(frames, ignore_index=True))
 
     def append_generation(self, name: str, generation: int, rows: list[Mapping[str, Any]]) -> None:
         """Write one generation's rows of an unfinished trial."""
-        frame = _core_first(pd.DataFrame.from_records(rows))
+        frame = core_first(pd.DataFrame.from_records(rows))
         atomic_write_bytes(self.path / PENDING / name / f"gen-{generation:06d}.parquet", parquet_bytes(frame))
 
     def finished_trials(self) -> set[tuple[str, str, int]]:
@@ -366,7 +366,7 @@ class RunDirectory:
             merged = rows if finished is None else pd.concat([finished, rows], ignore_index=True)
             position = [order((str(e), str(d), int(s))) for e, d, s in merged[TRIAL_KEY].itertuples(index=False, name=None)]
             merged = merged.iloc[sorted(range(len(merged)), key=position.__getitem__)].reset_index(drop=True)
-            atomic_write_bytes(self.evaluations_path, parquet_bytes(_core_first(merged)))
+            atomic_write_bytes(self.evaluations_path, parquet_bytes(core_first(merged)))
             faults.point("trial-merged")
         self.discard_trial_files(name)
 
@@ -396,7 +396,7 @@ class RunDirectory:
         return self.path / "artifacts" / name
 
 
-def _core_first(frame: pd.DataFrame) -> pd.DataFrame:
+def core_first(frame: pd.DataFrame) -> pd.DataFrame:
     """Core columns in their documented order, then designer/environment extras by name (so the
     table's columns do not depend on which trial finished first)."""
     core = [c for c in COLUMNS if c in frame.columns]

@@ -27,25 +27,13 @@ from .config import Experiment
 from .errors import GdabenchError, RunDirectoryError, RunFailure, Terminated, TrialError, one_line
 from .execution import cores
 from .execution.options import Execution, cpu_count
+from .events import Listeners, PluginHooks, RunListener
 from .execution.trials import InProcess, LocalProcesses, TrialHost, TrialWorkers
 from .plan import Plan, TrialSpec
 from .plugins import Registry, registry
 from .report.summary import summarize
 from .results import SUMMARY, Checkpoint, RunDirectory, no_space, platform_info, utc_now, versions
 from .trial import GenerationResult
-
-
-class RunListener:
-    """What a run tells while it goes (progress displays, plugin hooks); override what you need."""
-
-    def trial_started(self, spec: TrialSpec) -> None:
-        """A trial was handed to a worker (fresh, or to continue from its checkpoint)."""
-
-    def generation(self, spec: TrialSpec, result: GenerationResult) -> None:
-        """A generation's rows were written."""
-
-    def trial_finished(self, spec: TrialSpec, error: str | None) -> None:
-        """A trial ended: its rows are merged (``error`` None) or it failed with ``error``."""
 
 
 def default_out_dir(experiment: Experiment, root: str | Path = "results") -> Path:
@@ -89,7 +77,7 @@ def compare(
     """
     reg = reg or registry()
     execution = execution or Execution()
-    listener = listener or RunListener()
+    listener = Listeners([listener or RunListener(), PluginHooks(reg)])
     if resume:
         if out is None:
             raise RunDirectoryError("resume needs the run directory")
@@ -107,25 +95,31 @@ def compare(
         plan = Plan.resolve(experiment, reg)
         out = Path(out) if out is not None else default_out_dir(experiment)
         run = RunDirectory.create(out, _new_meta(plan, reg, command, execution.to_json()))
+    listener.run_started(run.path, plan, resume)
     try:
         with _signals_interrupt():
             failures = _run_trials(plan, run, execution, listener)
             if failures:
+                run.update_meta(failed_trials=[{"trial": plan.trials[i].title, "name": plan.trials[i].name, "error": e} for i, e in sorted(failures.items())])
                 raise TrialError(_failure_line(plan, failures))
-            summarize(run.load_evaluations(), plan.envs[0].optimum if len(plan.envs) == 1 else None).to_csv(run.path / SUMMARY, index=False)
-            run.update_meta(status="complete", finished=utc_now())
+            summary = summarize(run.load_evaluations(), {e.label: e.optimum for e in plan.envs})
+            summary.to_csv(run.path / SUMMARY, index=False)
+            run.update_meta(status="complete", finished=utc_now(), failed_trials=[])
     except KeyboardInterrupt as exc:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C must not cut the clean-up short
         run.update_meta(status="interrupted", error="terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted by the user")
+        listener.run_finished(run.path, "interrupted", None)
         raise
     except BaseException as exc:
         error = RunFailure(f"no space left on the device of {run.path}") if no_space(exc) else exc
         run.update_meta(status="failed", error=str(error) if isinstance(error, GdabenchError) else one_line(error))
+        listener.run_finished(run.path, "failed", None)
         if error is not exc:
             raise error from None
         raise
     finally:
         run.unlock()
+    listener.run_finished(run.path, "complete", summary)
     return run
 
 

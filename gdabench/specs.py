@@ -98,3 +98,21 @@ class ControllerSpec(Spec):
     """A controller: ``factory(**params)`` returns a Controller."""
 
     kind: ClassVar[str] = "controller"
+
+
+@dataclass(frozen=True)
+class SuiteSpec:
+    """A named set of environments to run every designer on (``--suite NAME``), with the controller
+    they need, if any; each entry is written as on the command line (``"nk[k=4]"``)."""
+
+    name: str
+    envs: tuple[str, ...]
+    description: str
+    controller: str | None = None
+
+    def __post_init__(self) -> None:
+        if not self.name or any(c in self.name for c in " ,[]="):
+            raise PluginError(f"invalid suite name {self.name!r}: use a non-empty name without spaces, commas, brackets or '='")
+        if not self.envs:
+            raise PluginError(f"suite {self.name!r} names no environment")
+        object.__setattr__(self, "envs", tuple(self.envs))

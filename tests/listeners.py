@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from gdabench.runner import RunListener
+from gdabench.events import RunListener
 
 
 class Killed(Exception):

@@ -10,7 +10,8 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from gdabench import ConfigError, Experiment, PluginChoice, compare, make_env, registry
+from gdabench import ConfigError, Experiment, PluginChoice, make_env, registry
+from gdabench.runner import compare
 from gdabench.body import Body, is_connected, random_body
 from gdabench.cli import app
 from gdabench.envs import nk_optimum

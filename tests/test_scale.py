@@ -20,7 +20,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from gdabench import Experiment, PluginChoice, compare
+from gdabench import Experiment, PluginChoice
+from gdabench.runner import compare
 from gdabench.body import Body
 from gdabench.errors import ConfigError
 from gdabench.execution import OK, EvalOutcome, EvalTask, Execution, make_executor

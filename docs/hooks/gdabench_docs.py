@@ -39,7 +39,8 @@ REFERENCE_SUMMARY = "results/reference/simple/report/summary.md"
 #: what each optional extra of pyproject.toml is for; an extra missing here fails the build
 EXTRAS = {
     "test": "the test suite (`python -m pytest`) and the timed benchmarks under `tests/benchmarks/`",
-    "ray": "`--executor ray`: evaluate bodies on a local Ray instance or an existing Ray cluster",
+    "ray": "`--executor ray`: run trials (and their evaluation workers) on a local Ray instance or an existing Ray cluster",
+    "tensorboard": "`--log tensorboard`: each generation's figures as TensorBoard event files",
     "bench": "`benchmarks/ppo_vs_sb3.py`, which compares the `ppo` controller with stable-baselines3's PPO",
     "docs": "building this site: `mkdocs build --strict`",
 }

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..hookspecs import hookimpl
-from ..specs import EnvironmentSpec
+from ..specs import EnvironmentSpec, SuiteSpec
 
 
 @hookimpl
@@ -34,5 +34,22 @@ def gdabench_environments() -> list[EnvironmentSpec]:
             name="nk",
             factory="gdabench.envs.nk:NKLandscape",
             description="NK landscape: each voxel's score depends on itself and the K voxels before it; K sets ruggedness",
+        ),
+    ]
+
+
+@hookimpl
+def gdabench_suites() -> list[SuiteSpec]:
+    return [
+        SuiteSpec(
+            name="landscapes",
+            envs=("simple", "two-peaks", "target", "nk[k=0]", "nk[k=4]"),
+            description="The analytic rewards: sum of voxels, a deceptive two-peak, a target body, NK smooth and rugged",
+        ),
+        SuiteSpec(
+            name="walker",
+            envs=("walker",),
+            controller="ppo",
+            description="Co-design on physics: Walker with PPO learning each body's controller (thesis section 5.1)",
         ),
     ]

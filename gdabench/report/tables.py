@@ -46,9 +46,11 @@ def summary_cells(summary: pd.DataFrame, confidence: float = CONFIDENCE, compact
     ci = f"median [{confidence:.0%} CI]"
     headers = ["designer", "env", "seeds", f"best reward, {ci}"]
     threshold = has_threshold(summary)
+    targets = summary["threshold"].dropna().unique()
+    per_env = threshold and len(targets) > 1  # a suite: each environment has its own threshold
     if threshold:
-        target = number(float(summary["threshold"].dropna().iloc[0]))
-        headers += [f"seeds reaching {target}", f"evaluations to {target}, {ci}"]
+        target = "the threshold" if per_env else number(float(targets[0]))
+        headers += [*(["threshold"] if per_env else []), f"seeds reaching {target}", f"evaluations to {target}, {ci}"]
     headers += [f"mean best-so-far, {ci}", "wall time s, median"]
     rows = []
     for _, r in summary.iterrows():
@@ -56,6 +58,7 @@ def summary_cells(summary: pd.DataFrame, confidence: float = CONFIDENCE, compact
         cells = [str(r["designer"]), env, str(r["seeds"]), with_interval(r["best_median"], r["best_ci_low"], r["best_ci_high"])]
         if threshold:
             cells += [
+                *([number(r["threshold"])] if per_env else []),
                 f"{r['seeds_reached']}/{r['seeds']}",
                 with_interval(r["evals_to_threshold_median"], r["evals_to_threshold_ci_low"], r["evals_to_threshold_ci_high"], digits=6),
             ]
@@ -70,7 +73,8 @@ def summary_cells(summary: pd.DataFrame, confidence: float = CONFIDENCE, compact
 def _compact_cells(summary: pd.DataFrame, confidence: float) -> tuple[list[str], list[list[str]]]:
     several = summary["env"].nunique() > 1 or bool(summary["controller"].astype(bool).any())
     threshold = has_threshold(summary)
-    target = number(float(summary["threshold"].dropna().iloc[0])) if threshold else ""
+    targets = summary["threshold"].dropna().unique()
+    target = number(float(targets[0])) if len(targets) == 1 else "target"
     headers = ["designer", *(["env"] if several else []), f"best [{confidence:.0%} CI]"]
     headers += [f"hit {target}", f"evals to {target}"] if threshold else []
     headers += ["seconds"]
