@@ -22,7 +22,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from gdabench import Experiment, PluginChoice, RunDirectory, compare
+from gdabench import Experiment, PluginChoice, RunDirectory
+from gdabench.runner import compare
 from gdabench.config import parse_seeds, split_top_level
 from gdabench.errors import ConfigError, GdabenchError
 from gdabench.plan import Plan

@@ -17,7 +17,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from gdabench import Experiment, PluginChoice, compare
+from gdabench import Experiment, PluginChoice
+from gdabench.runner import compare
 from gdabench.report.build import write_report
 
 

@@ -7,7 +7,6 @@ Most tests drive real ``gdabench`` processes (``python -m gdabench``) on the fau
 
 from __future__ import annotations
 
-import json
 import os
 import signal
 import subprocess
