@@ -1,4 +1,4 @@
-"""The script that builds issue 10's designers x landscapes table."""
+"""The script that builds the designers x landscapes table from one suite run per designer."""
 
 from __future__ import annotations
 
@@ -26,9 +26,10 @@ def test_runs_each_pair_once_and_prints_a_row_per_pair(table, tmp_path, capsys):
     assert [r.split(" | ")[2] for r in rows] == ["ga", "random", "ga", "random"]
     assert all("/2 |" in r for r in rows)  # seeds at optimum out of 2
     assert "| target | 100 |" in out
-    stamp = (tmp_path / "nk_k=1" / "ga" / "evaluations.parquet").stat().st_mtime_ns
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ga", "random"]  # one suite run per designer
+    stamp = (tmp_path / "ga" / "evaluations.parquet").stat().st_mtime_ns
     assert table.main([*args, "--root", str(tmp_path)]) == 0  # complete runs are not redone
-    assert (tmp_path / "nk_k=1" / "ga" / "evaluations.parquet").stat().st_mtime_ns == stamp
+    assert (tmp_path / "ga" / "evaluations.parquet").stat().st_mtime_ns == stamp
     assert capsys.readouterr().out == out
 
 
