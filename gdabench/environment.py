@@ -10,9 +10,12 @@ from __future__ import annotations
 import abc
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, ClassVar, Mapping
+from typing import TYPE_CHECKING, Any, Callable, ClassVar, Mapping
 
 from .body import DEFAULT_SHAPE, Body
+
+if TYPE_CHECKING:
+    from .execution.strategy import EvaluationStrategy
 
 
 @dataclass(frozen=True)
@@ -33,6 +36,11 @@ class Controller(abc.ABC):
         ``workdir``, when given, is a directory (created on demand by whoever writes to it) where
         the controller may keep artifacts such as a trained policy.
         """
+
+    def evaluation_strategy(self) -> EvaluationStrategy | None:
+        """How a whole generation is evaluated (see :mod:`gdabench.execution.strategy`); None:
+        every body once, fully (the default)."""
+        return None
 
 
 class Environment(abc.ABC):

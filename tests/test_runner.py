@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from gdabench import Designer, DesignerSpec, Environment, EnvironmentSpec, Experiment, PluginChoice, hookimpl
+from gdabench import Controller, ControllerSpec, Designer, DesignerSpec, Environment, EnvironmentSpec, Evaluation, Experiment, PluginChoice, hookimpl
+from gdabench.execution.strategy import EvaluationStrategy
+from gdabench.specs import Factory
 from gdabench.body import Body
 from gdabench.errors import ConfigError, TrialError
 from gdabench.plugins import Registry
@@ -261,3 +264,66 @@ def test_stop_at_optimum_ends_a_run_after_the_generation_that_reaches_it(tmp_pat
     assert list(stopped["body"]) == [A, "44/44", C]  # the rest of the budget is not spent
     assert stopped["best_so_far"].iloc[-1] == 16.0 and run.meta["status"] == "complete"
     assert Experiment.from_json(run.meta["config"]).stop_at_optimum is True
+
+
+# -- the evaluation-strategy extension point ---------------------------------------------------
+class Budgeted(Controller):
+    """Reward = sum of codes, scaled by how much of a 100-step budget it may spend."""
+
+    def __init__(self, *, steps: int = 100, halving: bool = False):
+        self.steps, self.halving = steps, halving
+
+    def evaluate(self, make_env, *, seed, workdir=None):
+        raise AssertionError("the test environment calls score() directly")
+
+    def score(self, body):
+        return Evaluation(float(body.voxels.sum()) * min(1.0, self.steps / 100), {"steps": self.steps})
+
+    def evaluation_strategy(self):
+        return Halving() if self.halving else None
+
+
+class Halving(EvaluationStrategy):
+    """Every body on a quarter of the budget, then the better half on all of it."""
+
+    def evaluate(self, tasks, evaluate):
+        short = [replace(t, controller=Factory.of(t.controller.factory, {**dict(t.controller.params), "steps": 25})) for t in tasks]
+        first = evaluate(short)
+        keep = sorted(range(len(tasks)), key=lambda i: -first[i].reward)[: len(tasks) // 2]
+        outcomes = [replace(o, info={**o.info, "stopped_early": 1}) for o in first]
+        for i, outcome in zip(keep, evaluate([tasks[i] for i in keep])):
+            outcomes[i] = replace(outcome, info={**outcome.info, "stopped_early": 0})
+        return outcomes
+
+
+class Trained(Environment):
+    requires_controller = True
+
+    def evaluate(self, body, *, seed, controller=None, workdir=None):
+        return controller.score(body)
+
+
+class StrategyPlugin:
+    @hookimpl
+    def gdabench_environments(self):
+        return [EnvironmentSpec("trained", Trained, "test env scored by a controller", requires_controller=True)]
+
+    @hookimpl
+    def gdabench_controllers(self):
+        return [ControllerSpec("budgeted", Budgeted, "test controller with a step budget")]
+
+
+def test_a_controller_can_hand_each_generation_to_an_evaluation_strategy(tmp_path):
+    reg = Registry(entry_points=False, extra_plugins={"strategy": StrategyPlugin()})
+    exp = Experiment(designers=(PluginChoice("random"),), envs=PluginChoice("trained"), controller=PluginChoice("budgeted", {"halving": True}),
+                     population=8, budget=16)
+    rows = compare(exp, tmp_path / "run", reg=reg).load_evaluations()
+    for _, generation in rows.groupby("generation"):
+        full = generation["body"].map(lambda t: float(Body.from_text(t).voxels.sum()))
+        finished = generation["stopped_early"] == 0
+        assert finished.sum() == 4 and (generation.loc[finished, "reward"] == full[finished]).all()
+        assert (generation.loc[~finished, "reward"] == full[~finished] / 4).all()  # partial rewards, marked
+        assert (generation.loc[finished, "steps"] == 100).all() and (generation.loc[~finished, "steps"] == 25).all()
+    plain = Experiment(**{**exp.__dict__, "controller": PluginChoice("budgeted")})
+    untouched = compare(plain, tmp_path / "plain", reg=reg).load_evaluations()
+    assert "stopped_early" not in untouched and (untouched["steps"] == 100).all()

@@ -11,6 +11,7 @@ the directory with anyone.  A worker that dies costs only the trial it was runni
 from __future__ import annotations
 
 import abc
+import functools
 import multiprocessing
 import os
 import signal
@@ -56,9 +57,11 @@ class TrialHost:
         if self._executor is None:
             warm = [r for r in (spec.env.factory, spec.controller) if r is not None]
             self._executor = make_executor(self.execution, self.prebuilt, warm)
-        self._evaluate = self._executor.map
+        evaluate = self._executor.map
         if self.execution.cache is not None and spec.cache_context is not None:
-            self._evaluate = cached(self._executor.map, EvaluationCache(self.execution.cache, spec.cache_context))
+            evaluate = cached(evaluate, EvaluationCache(self.execution.cache, spec.cache_context))
+        strategy = instance(spec.controller, self.prebuilt).evaluation_strategy() if spec.controller else None
+        self._evaluate = evaluate if strategy is None else functools.partial(strategy.evaluate, evaluate=evaluate)
 
     def step(self) -> GenerationResult:
         """Run the open trial's next generation."""
