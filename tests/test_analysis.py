@@ -29,23 +29,7 @@ from gdabench.report.runtimes import (
 )
 from gdabench.results import RunDirectory
 from gdabench.runner import compare
-
-
-def table(runs: dict[tuple[str, str, int], list[float]], *, population: int = 2, run_id: str = "r1") -> pd.DataFrame:
-    """A minimal evaluations table: one row per evaluation; NaN rewards are failed evaluations."""
-    rows = []
-    for (env, designer, seed), rewards in runs.items():
-        for n, reward in enumerate(rewards, start=1):
-            failed = isinstance(reward, float) and math.isnan(reward)
-            rows.append(
-                {
-                    "run_id": run_id, "designer": designer, "env": env, "controller": "", "population": population,
-                    "budget": len(rewards), "seed": seed, "generation": (n - 1) // population, "index": (n - 1) % population,
-                    "body": "44444/44444/44444/44444/44444", "body_hash": f"{designer}-{seed}-{n}", "reward": reward,
-                    "status": "error" if failed else "ok", "n_evals": n, "best_so_far": np.nan, "elapsed_seconds": 0.0,
-                }
-            )  # fmt: skip
-    return pd.DataFrame(rows)
+from stat_tables import table
 
 
 # -- runtimes --------------------------------------------------------------------------------------
@@ -288,13 +272,13 @@ def test_aggregate_point_estimates_are_rliables():
 
 def test_stratified_intervals_match_rliables():
     tx, ty = list(X.T), list(Y.T)
-    step = 1 / 12  # the statistics move in steps of about this size on 6 runs x 2 tasks
+    tol = 0.02  # bootstrap noise at 50000 resamples (a plain mean instead of the IQM is off by 0.04)
     low, high = agg.stratified_bootstrap(agg._iqm_rows, tx, resamples=50000)
-    np.testing.assert_allclose([low, high], RLIABLE["iqm_ci"], atol=step / 2)
+    np.testing.assert_allclose([low, high], RLIABLE["iqm_ci"], atol=tol)
     low, high = agg.stratified_bootstrap(agg._profile_rows(TAUS), tx, resamples=50000)
-    np.testing.assert_allclose([low, high], RLIABLE["profile_ci"], atol=step / 2)
+    np.testing.assert_allclose([low, high], RLIABLE["profile_ci"], atol=tol)
     low, high = agg.stratified_bootstrap(agg._improvement_rows, tx, ty, resamples=50000)
-    np.testing.assert_allclose([low, high], RLIABLE["poi_ci"], atol=step / 2)
+    np.testing.assert_allclose([low, high], RLIABLE["poi_ci"], atol=tol)
 
 
 def test_stratified_bootstrap_never_mixes_environments():
