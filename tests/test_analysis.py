@@ -16,7 +16,7 @@ from gdabench.errors import ConfigError
 from gdabench.report import aggregate as agg
 from gdabench.report.build import write_report
 from gdabench.report.pairwise import a12, holm, magnitude, pairwise
-from gdabench.report.power import critical_value, minimum_seeds, power, seeds_needed
+from gdabench.report.power import critical_value, minimum_seeds, noether, power, seeds_needed
 from gdabench.report.runtimes import (
     default_targets,
     expected_runtime,
@@ -239,8 +239,9 @@ def test_seeds_needed():
     assert needed == sorted(needed) and needed[0] >= 6
     # Noether's normal approximation for the signed-rank test agrees within a few seeds
     p_prime = norm.cdf(math.sqrt(2) * norm.ppf(0.64))
-    noether = (norm.ppf(0.975) + norm.ppf(0.8)) ** 2 / (3 * (p_prime - 0.5) ** 2)
-    assert abs(needed[2] - noether) / noether < 0.1
+    approximation = (norm.ppf(0.975) + norm.ppf(0.8)) ** 2 / (3 * (p_prime - 0.5) ** 2)
+    assert noether(0.64) == pytest.approx(approximation)
+    assert abs(needed[2] - approximation) / approximation < 0.1
     assert seeds_needed(0.71, comparisons=3) > needed[1]
     assert seeds_needed(0.5) is None and seeds_needed(0.501) is None  # no effect / out of reach
     assert seeds_needed(0.29) == needed[1]  # two-sided

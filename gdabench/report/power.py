@@ -13,8 +13,9 @@ designer B's), the effect size the pairwise tables report.  The model behind the
 * its power at n seeds is estimated by simulation: ``draws`` samples of n differences (fixed
   random seed), each rejected when its signed-rank statistic falls in the exact critical region.
 
-The smallest n with power at least ``power`` is found by bisection (power grows with n up to the
-simulation's noise, so the answer is good to a seed or two).  Below ``minimum_seeds(alpha)`` no
+The smallest n with power at least ``power`` is found by bisection around Noether's normal
+approximation (power grows with n up to the simulation's noise, so the answer is good to a seed
+or two).  Below ``minimum_seeds(alpha)`` no
 outcome at all can be significant.
 """
 
@@ -75,10 +76,16 @@ def power(n: int, a12: float, *, alpha: float = ALPHA, draws: int = DRAWS, seed:
         return 0.0
     d = norm.ppf(a12)
     diffs = np.random.default_rng(seed).standard_normal((draws, n)) + d
-    ranks = np.argsort(np.argsort(np.abs(diffs), axis=1), axis=1) + 1
-    w_plus = np.where(diffs > 0, ranks, 0).sum(axis=1)
+    by_size = np.take_along_axis(diffs > 0, np.argsort(np.abs(diffs), axis=1), axis=1)
+    w_plus = by_size @ np.arange(1, n + 1)  # sum of the ranks of the positive differences
     top = n * (n + 1) // 2
     return float(np.mean((w_plus <= c) | (w_plus >= top - c)))
+
+
+def noether(a12: float, *, alpha: float = ALPHA, target_power: float = POWER) -> float:
+    """Noether's (1987) normal approximation of the pairs the signed-rank test needs."""
+    p = norm.cdf(math.sqrt(2.0) * norm.ppf(a12))  # P(D1 + D2 > 0)
+    return (norm.ppf(1.0 - alpha / 2.0) + norm.ppf(target_power)) ** 2 / (3.0 * (p - 0.5) ** 2)
 
 
 @lru_cache(maxsize=1024)
@@ -96,8 +103,12 @@ def seeds_needed(
         return None
     a12 = max(a12, 1.0 - a12)  # the test is two-sided
     level = alpha / max(1, comparisons)
-    lo = hi = minimum_seeds(level)
-    while power(hi, a12, alpha=level) < target_power:  # bracket, then bisect
+    fewest = minimum_seeds(level)
+    guess = noether(a12, alpha=level, target_power=target_power)  # bracket the answer around it
+    lo, hi = max(fewest, int(0.7 * guess)), min(max_seeds, max(fewest, math.ceil(1.3 * guess) + 2))
+    if lo > fewest and power(lo, a12, alpha=level) >= target_power:
+        lo = fewest
+    while power(hi, a12, alpha=level) < target_power:
         if hi >= max_seeds:
             return None
         lo, hi = hi + 1, min(2 * hi, max_seeds)
