@@ -104,7 +104,7 @@ def seeds_needed(
     a12 = max(a12, 1.0 - a12)  # the test is two-sided
     level = alpha / max(1, comparisons)
     fewest = minimum_seeds(level)
-    guess = noether(a12, alpha=level, target_power=target_power)  # bracket the answer around it
+    guess = min(noether(a12, alpha=level, target_power=target_power), max_seeds)  # bracket the answer around it
     lo, hi = max(fewest, int(0.7 * guess)), min(max_seeds, max(fewest, math.ceil(1.3 * guess) + 2))
     if lo > fewest and power(lo, a12, alpha=level) >= target_power:
         lo = fewest
