@@ -4,8 +4,14 @@ from __future__ import annotations
 
 import math
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
+from typer.testing import CliRunner
+
+from gdabench.cli import app
+from gdabench.results import RunDirectory
 
 
 def table(runs: dict[tuple[str, str, int], list[float]], *, population: int = 2, run_id: str = "r1") -> pd.DataFrame:
@@ -23,3 +29,11 @@ def table(runs: dict[tuple[str, str, int], list[float]], *, population: int = 2,
                 }
             )  # fmt: skip
     return pd.DataFrame(rows)
+
+
+def small_run(out: Path, env: str, seeds: str, budget: int = 60, designers: str = "ga,random") -> RunDirectory:
+    """A real run made through the command line (no report): `compare --designers ... --seeds ...`."""
+    args = ["compare", "--designers", designers, "--env", env, "--seeds", seeds, "--budget", str(budget), "--out", str(out), "--quiet", "--no-report"]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    return RunDirectory.open(out)

@@ -11,7 +11,6 @@ import pandas as pd
 import pytest
 from scipy.stats import mannwhitneyu, norm, trim_mean, wilcoxon
 
-from gdabench import Experiment, PluginChoice
 from gdabench.errors import ConfigError
 from gdabench.report import aggregate as agg
 from gdabench.report.build import write_report
@@ -28,8 +27,7 @@ from gdabench.report.runtimes import (
     runtime_ecdf,
 )
 from gdabench.results import RunDirectory
-from gdabench.runner import compare
-from stat_tables import table
+from stat_tables import small_run, table
 
 
 # -- runtimes --------------------------------------------------------------------------------------
@@ -310,14 +308,8 @@ def test_normalised_scores_and_designers_missing_an_environment():
 
 
 # -- the report -------------------------------------------------------------------------------------------
-def _run(tmp_path, name: str, env: str, seeds: tuple[int, ...], budget: int = 60) -> RunDirectory:
-    experiment = Experiment(
-        designers=(PluginChoice("ga", {}, "ga"), PluginChoice("random", {}, "random")),
-        env=PluginChoice(env, {}, env),
-        budget=budget,
-        seeds=seeds,
-    )
-    return compare(experiment, tmp_path / name)
+def _run(tmp_path, name: str, env: str, seeds: str) -> RunDirectory:
+    return small_run(tmp_path / name, env, seeds)
 
 
 def _section(report, title: str):
@@ -325,7 +317,7 @@ def _section(report, title: str):
 
 
 def test_one_seed_report_says_nothing_can_be_concluded(tmp_path):
-    run = _run(tmp_path, "one", "simple", (0,))
+    run = _run(tmp_path, "one", "simple", "0")
     report = write_report(run.path, animations=False)
     words = " ".join(_section(report, "Which differences are significant").paragraphs)
     assert "Nothing can be concluded" in words and "one seed" in words
@@ -336,7 +328,7 @@ def test_one_seed_report_says_nothing_can_be_concluded(tmp_path):
 
 
 def test_report_pages_agree_with_the_functions(tmp_path):
-    run = _run(tmp_path, "many", "simple", tuple(range(6)))
+    run = _run(tmp_path, "many", "simple", "0..5")
     report = write_report(run.path, animations=False)
     frame = run.load_evaluations()
     titles = [s.title for s in report.sections]
@@ -354,8 +346,8 @@ def test_report_pages_agree_with_the_functions(tmp_path):
 
 
 def test_several_environments_get_the_aggregate_page(tmp_path):
-    simple = _run(tmp_path, "simple", "simple", (0, 1, 2))
-    peaks = _run(tmp_path, "peaks", "two-peaks", (0, 1, 2))
+    simple = _run(tmp_path, "simple", "simple", "0..2")
+    peaks = _run(tmp_path, "peaks", "two-peaks", "0..2")
     both = tmp_path / "both"
     shutil.copytree(simple.path, both)
     merged = pd.concat([simple.load_evaluations(), peaks.load_evaluations()], ignore_index=True)

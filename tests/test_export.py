@@ -13,14 +13,12 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from gdabench import Experiment, PluginChoice
 from gdabench.cli import app
 from gdabench.errors import ConfigError
 from gdabench.evaluation import COUNTED
 from gdabench.report.export import _dat_block, export_run
 from gdabench.report.runtimes import run_traces
-from gdabench.runner import compare
-from stat_tables import table
+from stat_tables import small_run, table
 
 ioh = pytest.importorskip("ioh")
 iohinspector = pytest.importorskip("iohinspector")
@@ -30,13 +28,7 @@ SEEDS = (0, 1, 2)
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
-    experiment = Experiment(
-        designers=(PluginChoice("ga", {}, "ga"), PluginChoice("random", {}, "random")),
-        env=PluginChoice("simple", {}, "simple"),
-        budget=60,
-        seeds=SEEDS,
-    )
-    return compare(experiment, tmp_path_factory.mktemp("runs") / "small")
+    return small_run(tmp_path_factory.mktemp("runs") / "small", "simple", ",".join(map(str, SEEDS)))
 
 
 @pytest.fixture(scope="module")
