@@ -34,7 +34,7 @@ from scipy.stats import mannwhitneyu, wilcoxon
 
 from ..errors import ConfigError
 from .power import ALPHA, POWER, minimum_seeds, seeds_needed
-from .runtimes import METRICS, run_scores, with_run_id
+from .runtimes import run_scores, with_run_id
 
 PAIRINGS = ("auto", "paired", "unpaired")
 #: |A12 - 0.5| thresholds of Vargha and Delaney (2000) for a small, medium and large effect
@@ -183,6 +183,3 @@ def pairwise(
     table = pd.DataFrame(rows, columns=COLUMNS)
     return table.astype({"seeds_for_power": "Int64"})
 
-
-def metric_label(metric: str) -> str:
-    return METRICS[metric][0]

@@ -58,7 +58,7 @@ def critical_value(n: int, alpha: float) -> int:
     """
     if n > EXACT_UP_TO:
         mean, sd = n * (n + 1) / 4.0, math.sqrt(n * (n + 1) * (2 * n + 1) / 24.0)
-        return int(math.floor(mean + norm.ppf(alpha / 2.0) * sd - 0.5))
+        return math.floor(mean + norm.ppf(alpha / 2.0) * sd - 0.5)
     cdf = _null_cdf(n)
     below = np.nonzero(cdf <= alpha / 2.0 + 1e-12)[0]
     return int(below[-1]) if len(below) else -1

@@ -182,7 +182,7 @@ def horizon(traces: Sequence[RunTrace], frame: pd.DataFrame | None = None) -> in
 
 
 def default_budgets(budget: int) -> list[int]:
-    return sorted({max(1, int(round(budget * f))) for f in BUDGET_FRACTIONS})
+    return sorted({max(1, round(budget * f)) for f in BUDGET_FRACTIONS})
 
 
 # -- fixed target ---------------------------------------------------------------------------------
