@@ -460,6 +460,20 @@ def replay(
             console.print(f"animation: {done.gif}", highlight=False)
 
 
+# -- export -----------------------------------------------------------------------------------
+@app.command()
+def export(
+    run_dir: Annotated[Path, typer.Argument(help="A run directory written by compare or run.")],
+    format: Annotated[str, typer.Option("--format", "-f", help="ioh (IOHprofiler data for IOHanalyzer) or csv (the table, for spreadsheets).")] = "ioh",
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Where to write (default: RUN_DIR/export/ioh or RUN_DIR/export/evaluations.csv).")] = None,
+) -> None:
+    """Write a run's results in another tool's format."""
+    with _Guard():
+        from .report.export import export_run
+
+        console.print(escape(f"{format}: {export_run(run_dir, format, out)}"), highlight=False, soft_wrap=True)
+
+
 def main() -> None:
     """The console script: usage errors become one ``error:`` line too (exit 2)."""
     command = typer.main.get_command(app)

@@ -66,7 +66,7 @@ def test_every_plot_and_table_is_written(report, run_dir):
     out = run_dir / "report"
     assert report.out == out
     expected_pngs = ["best_so_far.png", "rewards_per_generation.png", "best_bodies.png", "diversity.png", "novelty.png"]
-    expected_pngs += [f"bodies_per_generation_{d}.png" for d in DESIGNERS]
+    expected_pngs += [f"bodies_per_generation_{d}.png" for d in DESIGNERS] + ["ecdf_simple.png"]
     for name in expected_pngs:
         image = Image.open(out / name)
         assert image.format == "PNG" and image.width > 300 and image.height > 150, name

@@ -41,6 +41,7 @@ from .content import Figure, Report, Section
 from .diversity import NEAR_COPY, SURVIVORS, diversity
 from .html import render_html
 from .markdown import render_markdown
+from .stat_pages import statistics_sections
 from .summary import failure_counts, per_run, summarize
 from .stats import CONFIDENCE, RESAMPLES, best_so_far_curve, generation_rewards, median_band
 from .tables import summary_cells
@@ -304,6 +305,11 @@ def write_report(
         Section("Performance", figures_main),
         Section("Bodies", body_figures, "Colours as in Evolution Gym: rigid black, soft grey, horizontal actuator orange, vertical actuator blue, empty white."),
     ]
+    envs = list(pd.unique(frame["env"]))
+    optimum = meta.get("env_optimum")
+    stat = statistics_sections(frame, optima={envs[0]: float(optimum)} if optimum is not None and len(envs) == 1 else None, confidence=confidence)
+    sections = [stat.sections[0], sections[0], *stat.sections[1:], *sections[1:]]  # significance first, then performance
+    tables.update(stat.tables)
     if animations and experiment is not None:
         gifs = _animations(run, experiment, best_of, slugs, notes, reg)
         if gifs:
@@ -330,7 +336,7 @@ def write_report(
         rows=rows,
         sections=sections,
         tables=[(name, what) for name, (_, what) in tables.items()],
-        definitions=definitions(confidence, survivors, near_copy),
+        definitions=definitions(confidence, survivors, near_copy) + stat.definitions,
     )
     _write(report, tables)
     return report

@@ -20,12 +20,24 @@ class Figure:
 
 
 @dataclass(frozen=True)
+class Table:
+    """A table of text cells shown in the report (its numbers are also in a CSV next to it)."""
+
+    title: str
+    headers: list[str]
+    rows: list[list[str]]
+    caption: str = ""
+
+
+@dataclass(frozen=True)
 class Section:
-    """A titled group of figures."""
+    """A titled group of figures, optionally with paragraphs of text and tables before them."""
 
     title: str
     figures: list[Figure]
     intro: str = ""
+    paragraphs: list[str] = field(default_factory=list)
+    tables: list[Table] = field(default_factory=list)
 
 
 @dataclass

@@ -9,7 +9,7 @@ from __future__ import annotations
 import base64
 from html import escape
 
-from .content import Figure, Report
+from .content import Figure, Report, Table
 
 STYLE = """
 body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; margin: 2em auto; max-width: 1200px;
@@ -22,7 +22,7 @@ table.facts td { text-align: left; } table.facts td:first-child { font-weight: 6
 .notes { background: #fff7e0; border-left: 4px solid #f0b400; padding: .5em 1em; }
 figure { margin: 1.5em 0; } figure img { max-width: 100%; border: 1px solid #eee; }
 figcaption { font-size: .9em; color: #555; } dt { font-weight: 600; margin-top: .5em; }
-code { background: #f5f5f5; padding: 0 .2em; }
+code { background: #f5f5f5; padding: 0 .2em; } p.caption { font-size: .9em; color: #555; margin-top: -.5em; }
 """
 
 
@@ -44,6 +44,11 @@ def _figure(fig: Figure) -> str:
     )
 
 
+def _captioned(table: Table) -> str:
+    caption = f" {escape(table.caption)}" if table.caption else ""
+    return f"<h3>{escape(table.title)}</h3>" + _table(table.headers, table.rows) + (f"<p class=\"caption\">{caption.strip()}</p>" if caption else "")
+
+
 def render_html(report: Report) -> str:
     """The whole report page."""
     parts = [
@@ -60,6 +65,8 @@ def render_html(report: Report) -> str:
         parts.append(f"<h2>{escape(section.title)}</h2>")
         if section.intro:
             parts.append(f"<p>{escape(section.intro)}</p>")
+        parts.extend(f"<p>{escape(text)}</p>" for text in section.paragraphs)
+        parts.extend(_captioned(t) for t in section.tables)
         parts.extend(_figure(f) for f in section.figures)
     if report.definitions:
         parts.append("<h2>How the numbers are computed</h2><dl>")

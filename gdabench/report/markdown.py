@@ -31,6 +31,10 @@ def render_markdown(report: Report) -> str:
         out += [f"## {section.title}", ""]
         if section.intro:
             out += [section.intro, ""]
+        for text in section.paragraphs:
+            out += [text, ""]
+        for t in section.tables:
+            out += [f"**{t.title}**", "", table(t.headers, t.rows), ""] + ([f"*{t.caption}*", ""] if t.caption else [])
         for fig in section.figures:
             out += [f"![{fig.title}]({fig.filename})", "", f"*{fig.title}.* {fig.caption}", ""]
     if report.definitions:

@@ -1,0 +1,185 @@
+"""Designer against designer, per environment: a test, a corrected p-value and an effect size.
+
+**When runs are paired.**  Designers compared in one run (one ``run_id``) get the same seeds, and
+a seed fixes everything random about a run: the designers that start from Evolution Gym's
+sampler (ga, gda, random) even propose the same first generation under the same seed.  So two
+designers' runs are *paired* when they come from the same run with the same seed.  With
+``pairing="auto"`` (the default) a pair of designers is tested paired when every run of each has
+its partner (the same (run id, seed) keys on both sides); otherwise -- tables
+concatenated from different runs, or seeds missing on one side -- unpaired.  ``"paired"`` pairs
+on the common keys and drops the rest; ``"unpaired"`` never pairs.
+
+**Tests.**  Paired: Wilcoxon's signed-rank test on the per-seed differences (zero differences
+dropped, exact p-values for small samples without ties, as scipy does).  Unpaired: the
+Mann-Whitney U test.  Both two-sided.  The p-values of all pairs of one environment and metric
+are one family and are corrected with Holm's step-down procedure, which controls the chance of
+any false "significant" at ``alpha``.
+
+**Effect size.**  Vargha and Delaney's A12 = P(A > B) + P(A = B) / 2 over all runs of the two
+designers (0.5: no effect), called negligible below 0.56 (or above 0.44), small below 0.64,
+medium below 0.71 and large beyond.  The median difference is the median of the per-seed
+differences when paired, the difference of the medians otherwise.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from itertools import combinations
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+from scipy.stats import mannwhitneyu, wilcoxon
+
+from ..errors import ConfigError
+from .power import ALPHA, POWER, minimum_seeds, seeds_needed
+from .runtimes import run_scores, with_run_id
+
+PAIRINGS = ("auto", "paired", "unpaired")
+#: |A12 - 0.5| thresholds of Vargha and Delaney (2000) for a small, medium and large effect
+MAGNITUDES = ((0.06, "negligible"), (0.14, "small"), (0.21, "medium"))
+
+COLUMNS = [
+    "env", "designer_a", "designer_b", "metric", "n_a", "n_b", "pairs", "test", "same_start",
+    "median_a", "median_b", "difference", "statistic", "p", "p_holm", "a12", "magnitude",
+    "significant", "seeds_for_power", "verdict",
+]  # fmt: skip
+
+
+def a12(x: Sequence[float], y: Sequence[float]) -> float:
+    """Vargha-Delaney A12: probability that a value of ``x`` beats one of ``y``, ties counting half."""
+    a, b = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    if not len(a) or not len(b):
+        return math.nan
+    greater = (a[:, None] > b[None, :]).mean()
+    equal = (a[:, None] == b[None, :]).mean()
+    return float(greater + 0.5 * equal)
+
+
+def magnitude(a: float) -> str:
+    """Vargha-Delaney's name for an A12 value."""
+    if math.isnan(a):
+        return "-"
+    distance = abs(a - 0.5)
+    for limit, name in MAGNITUDES:
+        if distance < limit:
+            return name
+    return "large"
+
+
+def holm(pvalues: Sequence[float]) -> np.ndarray:
+    """Holm-adjusted p-values (NaN stays NaN and does not count towards the family size)."""
+    p = np.asarray(pvalues, dtype=float)
+    out = np.full(len(p), math.nan)
+    valid = np.nonzero(~np.isnan(p))[0]
+    m = len(valid)
+    order = valid[np.argsort(p[valid], kind="stable")]
+    running = 0.0
+    for i, idx in enumerate(order):
+        running = max(running, min(1.0, (m - i) * p[idx]))
+        out[idx] = running
+    return out
+
+
+def test_pair(x: Sequence[float], y: Sequence[float], paired: bool) -> tuple[str, float, float]:
+    """(test name, statistic, two-sided p) for ``x`` against ``y``; NaN p below two runs a side."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    name = "Wilcoxon signed-rank" if paired else "Mann-Whitney U"
+    if len(x) < 2 or len(y) < 2:
+        return name, math.nan, math.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-zero differences: scipy warns, p = 1
+        result = wilcoxon(x, y) if paired else mannwhitneyu(x, y, alternative="two-sided")
+    p = float(result.pvalue)
+    return name, float(result.statistic), 1.0 if math.isnan(p) else p
+
+
+def _same_start(frame: pd.DataFrame, env: str, a: str, b: str, keys: list[tuple[str, int]]) -> str:
+    """Whether the paired runs proposed the same first generation: yes, no or partly."""
+    if not keys or "generation" not in frame.columns:
+        return "-"
+    first = with_run_id(frame[(frame["env"] == env) & (frame["generation"] == 0) & frame["designer"].isin([a, b])])
+    bodies = {(d, r, int(s)): frozenset(g["body_hash"]) for (d, r, s), g in first.groupby(["designer", "run_id", "seed"])}
+    same = [bodies.get((a, r, s)) == bodies.get((b, r, s)) and bodies.get((a, r, s)) is not None for r, s in keys]
+    return "yes" if all(same) else "no" if not any(same) else "partly"
+
+
+def _verdict(row: dict, alpha: float, comparisons: int, target_power: float) -> str:
+    a, b = row["designer_a"], row["designer_b"]
+    if math.isnan(row["p"]):
+        return "cannot be tested: fewer than two seeds per designer, so nothing can be concluded"
+    effect = f"A12 = {row['a12']:.2f}, {row['magnitude']}"
+    if row["significant"]:
+        better, worse = (a, b) if row["a12"] > 0.5 else (b, a)
+        return f"{better} better than {worse}: significant at {alpha:g} (Holm p = {row['p_holm']:.2g}; {effect})"
+    text = f"no significant difference at {alpha:g} (Holm p = {row['p_holm']:.2g}; {effect})"
+    if row["test"].startswith("Wilcoxon"):
+        needed = minimum_seeds(alpha / comparisons)
+        if row["pairs"] < needed:
+            text += f"; {row['pairs']} seeds cannot give a significant result after correction (at least {needed} needed)"
+    if row["seeds_for_power"] is not None:
+        text += f"; ~{row['seeds_for_power']} seeds would detect an effect this size {target_power:.0%} of the time"
+    return text
+
+
+def pairwise(
+    frame: pd.DataFrame,
+    metric: str = "best_reward",
+    *,
+    alpha: float = ALPHA,
+    pairing: str = "auto",
+    target_power: float = POWER,
+) -> pd.DataFrame:
+    """Every pair of designers of every environment: test, p, Holm-corrected p, A12 and a verdict.
+
+    ``designer_a`` comes before ``designer_b`` in the table; ``difference`` and ``a12`` are A
+    against B (A12 > 0.5: A's runs tend to score higher; every metric is higher-is-better).
+    ``seeds_for_power`` (for pairs not found significant) is how many paired seeds would detect
+    the observed A12 with ``target_power`` at the Holm-corrected level (see :mod:`.power`).
+    """
+    if pairing not in PAIRINGS:
+        raise ConfigError(f"unknown pairing {pairing!r}; choose one of {', '.join(PAIRINGS)}")
+    if not 0.0 < alpha < 1.0:
+        raise ConfigError(f"the significance level must be between 0 and 1, got {alpha}")
+    scores = run_scores(frame, metric)
+    rows = []
+    for env, runs in scores.groupby("env", sort=False):
+        designers = list(pd.unique(runs["designer"]))
+        family = []
+        for a, b in combinations(designers, 2):
+            x = runs[runs["designer"] == a].set_index(["run_id", "seed"])["score"].dropna()
+            y = runs[runs["designer"] == b].set_index(["run_id", "seed"])["score"].dropna()
+            common = x.index.intersection(y.index)
+            paired = pairing == "paired" or (pairing == "auto" and len(common) > 0 and len(common) == len(x) == len(y))
+            if paired:
+                xs, ys = x.loc[common].to_numpy(), y.loc[common].to_numpy()
+                difference = float(np.median(xs - ys)) if len(common) else math.nan
+            else:
+                xs, ys = x.to_numpy(), y.to_numpy()
+                difference = float(np.median(xs) - np.median(ys)) if len(xs) and len(ys) else math.nan
+            test, statistic, p = test_pair(xs, ys, paired)
+            effect = a12(xs, ys)
+            family.append(
+                {
+                    "env": env, "designer_a": a, "designer_b": b, "metric": metric, "n_a": len(x), "n_b": len(y),
+                    "pairs": len(common) if paired else 0, "test": test,
+                    "same_start": _same_start(frame, env, a, b, list(common)) if paired else "-",
+                    "median_a": float(np.median(xs)) if len(xs) else math.nan,
+                    "median_b": float(np.median(ys)) if len(ys) else math.nan,
+                    "difference": difference, "statistic": statistic, "p": p, "a12": effect,
+                    "magnitude": magnitude(effect) if not math.isnan(p) else "-",
+                }
+            )  # fmt: skip
+        corrected = holm([r["p"] for r in family])
+        comparisons = int(np.sum(~np.isnan(corrected)))
+        for row, p_holm in zip(family, corrected):
+            row["p_holm"] = p_holm
+            row["significant"] = bool(p_holm < alpha)
+            needs_power = not math.isnan(row["p"]) and not row["significant"]
+            row["seeds_for_power"] = seeds_needed(row["a12"], alpha=alpha, target_power=target_power, comparisons=max(1, comparisons)) if needs_power else None
+            row["verdict"] = _verdict(row, alpha, max(1, comparisons), target_power)
+        rows += family
+    table = pd.DataFrame(rows, columns=COLUMNS)
+    return table.astype({"seeds_for_power": "Int64"})
+
