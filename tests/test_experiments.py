@@ -131,3 +131,19 @@ def test_log_tensorboard_writes_what_tensorboard_reads(tmp_path):
     table = rows(tmp_path / "run").groupby("generation").agg(n=("n_evals", "max"), best=("best_so_far", "max"))
     assert [s for s, _ in best] == table["n"].tolist() and [v for _, v in best] == pytest.approx(table["best"].tolist())
     assert {"reward/max", "reward/mean", "reward/min", "evaluated"} <= set(reader.Tags()["scalars"])
+
+
+def test_the_report_of_a_suite_has_a_page_per_environment_and_one_across_them(tmp_path):
+    result = invoke("compare", "-d", "ga,random", "--env", "simple,nk[k=4]", "--seeds", "0..2", "--budget", "50", "--out", str(tmp_path / "run"), "-q")
+    assert result.exit_code == 0, result.stderr
+    report = tmp_path / "run" / "report"
+    for name in ("best_so_far_simple.png", "best_so_far_nk_k=4.png", "rewards_per_generation_simple.png", "aggregate_iqm.csv", "ranks.csv"):
+        assert (report / name).exists(), name
+    ranks = pd.read_csv(report / "ranks.csv").set_index("designer")
+    summary = pd.read_csv(tmp_path / "run" / "summary.csv").set_index(["env", "designer"])["best_median"]
+    for env in ("simple", "nk[k=4]"):
+        better = "ga" if summary[(env, "ga")] > summary[(env, "random")] else "random"
+        assert ranks.loc[better, env] == 1
+    assert ranks["mean rank"].tolist() == pytest.approx(ranks[["simple", "nk[k=4]"]].mean(axis=1).tolist())
+    html = (report / "report.html").read_text()
+    assert "Performance on simple" in html and "Performance on nk[k=4]" in html and "Across environments" in html

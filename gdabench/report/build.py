@@ -37,12 +37,12 @@ from ..results import RunDirectory, atomic_write_bytes
 from . import plots
 from .animation import animate
 from .bodies import bodies_figure
-from .content import Figure, Report, Section
+from .content import Figure, Report, Section, Table
 from .diversity import NEAR_COPY, SURVIVORS, diversity
 from .html import render_html
 from .markdown import render_markdown
 from .stat_pages import statistics_sections
-from .summary import failure_counts, per_run, summarize
+from .summary import failure_counts, per_run, summarize, thresholds
 from .stats import CONFIDENCE, RESAMPLES, best_so_far_curve, generation_rewards, median_band
 from .tables import summary_cells
 
@@ -173,15 +173,21 @@ def _body(text: str) -> Body | None:
         return None
 
 
-def _threshold(threshold: float | None, meta: dict[str, Any]) -> tuple[float | None, str]:
+def _threshold(threshold: float | None, meta: dict[str, Any], envs: list[str]) -> tuple[dict[str, float | None], str]:
+    """The threshold of each environment, and how the report describes them."""
     if threshold is not None:
         if not math.isfinite(threshold):
             raise ConfigError(f"--threshold must be a finite number, got {threshold}")
-        return float(threshold), f"{threshold:g} (chosen with --threshold)"
-    optimum = meta.get("env_optimum")
+        return dict.fromkeys(envs, float(threshold)), f"{threshold:g} (chosen with --threshold)"
+    known = thresholds(meta)
+    targets = {env: (known.get(env) if isinstance(known, dict) else known) for env in envs}
+    if len(envs) > 1:
+        words = ", ".join(f"{env} {'unknown' if t is None else f'{t:g}'}" for env, t in targets.items())
+        return targets, f"each environment's optimum ({words}); pass --threshold to count evaluations to one reward"
+    optimum = targets[envs[0]]
     if optimum is not None:
-        return float(optimum), f"{float(optimum):g} (the environment's optimum)"
-    return None, "none: the environment has no known optimum; pass --threshold to count evaluations to a reward"
+        return targets, f"{float(optimum):g} (the environment's optimum)"
+    return targets, "none: the environment has no known optimum; pass --threshold to count evaluations to a reward"
 
 
 def definitions(confidence: float, survivors: int, near_copy: int) -> list[tuple[str, str]]:
@@ -272,7 +278,8 @@ def write_report(
     out = Path(out) if out is not None else run.path / REPORT_DIR
     experiment = _experiment(meta, notes)
     budget = _budget(experiment, frame)
-    target, target_text = _threshold(threshold, meta)
+    envs = [str(e) for e in pd.unique(frame["env"])]
+    target, target_text = _threshold(threshold, meta, envs)
     notes += _incomplete_runs(frame, experiment, budget)
     notes += [f"{row.designer} on {row.env}: {row.line}" for row in failure_counts(frame).itertuples()]
     designers = list(pd.unique(frame["designer"]))
@@ -283,46 +290,47 @@ def write_report(
     runs = per_run(frame, target)
     headers, rows = summary_cells(summary, confidence)
     generations = generation_rewards(frame)
-    div = diversity(frame, survivors, near_copy)
     tables: dict[str, tuple[pd.DataFrame, str]] = {
         "summary.csv": (summary, "the per-designer table with all its columns"),
         "runs.csv": (runs, "one row per designer and seed: best reward, evaluations, evaluations to the threshold, mean best-so-far, wall time"),
         "generations.csv": (generations, "reward per generation (min, mean, max) of every run"),
     }
 
-    curves, seeds, curve_table = _best_so_far(frame, designers, budget, confidence)
-    tables["best_so_far.csv"] = (curve_table, "median best-so-far reward over seeds at every evaluation count, with its bootstrap interval")
-    tables["diversity.csv"] = (div, "diversity of the proposals of every generation of every run")
+    performance, curve_tables = [], []
+    for env in envs:
+        part = frame[frame["env"] == env]
+        mine = [d for d in designers if d in set(part["designer"])]
+        curves, seeds, curve_table = _best_so_far(part, mine, budget, confidence)
+        curve_tables.append(curve_table.assign(env=env))
+        suffix, where = ("", "") if len(envs) == 1 else (f"_{_slug(env, set())}", f" on {env}")
+        performance.append(Section(f"Performance{where}", [
+            Figure(f"best_so_far{suffix}.png", f"Best-so-far reward against evaluations{where}", f"All designers; line = median over seeds, band = {confidence:.0%} bootstrap CI of the median.", plots.png(plots.best_so_far_figure(curves, seeds=seeds, threshold=target[env], confidence=confidence))),
+            Figure(f"rewards_per_generation{suffix}.png", f"Reward per generation{where}", "Min / mean / max reward of the bodies evaluated in each generation (as in the thesis's figures 5.1-5.7); median over seeds, band = inter-quartile range.", plots.png(plots.generation_rewards_figure(generations[generations["env"] == env], mine))),
+        ]))  # fmt: skip
+    tables["best_so_far.csv"] = (pd.concat(curve_tables, ignore_index=True), "median best-so-far reward over seeds at every evaluation count, per environment and designer, with its bootstrap interval")
 
-    figures_main = [
-        Figure("best_so_far.png", "Best-so-far reward against evaluations", f"All designers; line = median over seeds, band = {confidence:.0%} bootstrap CI of the median.", plots.png(plots.best_so_far_figure(curves, seeds=seeds, threshold=target, confidence=confidence))),
-        Figure("rewards_per_generation.png", "Reward per generation", "Min / mean / max reward of the bodies evaluated in each generation (as in the thesis's figures 5.1-5.7); median over seeds, band = inter-quartile range.", plots.png(plots.generation_rewards_figure(generations, designers))),
-    ]  # fmt: skip
-
-    body_figures, best_of = _body_figures(frame, runs, designers, slugs)
-
-    sections = [
-        Section("Performance", figures_main),
-        Section("Bodies", body_figures, "Colours as in Evolution Gym: rigid black, soft grey, horizontal actuator orange, vertical actuator blue, empty white."),
-    ]
-    envs = list(pd.unique(frame["env"]))
-    optimum = meta.get("env_optimum")
-    stat = statistics_sections(frame, optima={envs[0]: float(optimum)} if optimum is not None and len(envs) == 1 else None, confidence=confidence)
-    sections = [stat.sections[0], sections[0], *stat.sections[1:], *sections[1:]]  # significance first, then performance
+    body_sections: list[Section] = []
+    best_of: dict[str, tuple[Body, int]] = {}
+    if len(envs) > 1:
+        performance.insert(0, _ranks_section(summary, designers, envs, tables))
+        notes.append("several environments: bodies, animations and diversity are left out; report a run of one environment to see them")
+    else:
+        div = diversity(frame, survivors, near_copy)
+        tables["diversity.csv"] = (div, "diversity of the proposals of every generation of every run")
+        body_figures, best_of = _body_figures(frame, runs, designers, slugs)
+        body_sections.append(Section("Bodies", body_figures, "Colours as in Evolution Gym: rigid black, soft grey, horizontal actuator orange, vertical actuator blue, empty white."))
+        if animations and experiment is not None:
+            gifs = _animations(run, experiment, best_of, slugs, notes, reg)
+            if gifs:
+                body_sections.append(Section("Animations", gifs, "The best body of each designer acting in the environment, replayed with the seed and artifacts of its evaluation."))
+        body_sections.append(Section("Diversity of proposals", [
+            Figure("diversity.png", "Diversity per generation", "Share of unique proposals, mean pairwise Hamming distance, and mean distance to the nearest survivor of the previous generation (thesis section 4.5).", plots.png(plots.diversity_figure(div, designers))),
+            Figure("novelty.png", "Near-copies versus novel shapes", "Share of each generation's proposals by distance to the nearest survivor.", plots.png(plots.novelty_figure(div, designers, near_copy))),
+        ]))  # fmt: skip
+    stat = statistics_sections(frame, optima={env: t for env, t in target.items() if t is not None} or None, confidence=confidence)
     tables.update(stat.tables)
-    if animations and experiment is not None:
-        gifs = _animations(run, experiment, best_of, slugs, notes, reg)
-        if gifs:
-            sections.append(Section("Animations", gifs, "The best body of each designer acting in the environment, replayed with the seed and artifacts of its evaluation."))
-    sections.append(
-        Section(
-            "Diversity of proposals",
-            [
-                Figure("diversity.png", "Diversity per generation", "Share of unique proposals, mean pairwise Hamming distance, and mean distance to the nearest survivor of the previous generation (thesis section 4.5).", plots.png(plots.diversity_figure(div, designers))),
-                Figure("novelty.png", "Near-copies versus novel shapes", "Share of each generation's proposals by distance to the nearest survivor.", plots.png(plots.novelty_figure(div, designers, near_copy))),
-            ],
-        )
-    )  # fmt: skip
+    significance, *statistics = stat.sections
+    sections = [significance, *performance, *statistics, *body_sections]  # what is significant first, then the curves
 
     env_name = ", ".join(e.label for e in experiment.envs) if experiment is not None else ", ".join(map(str, frame["env"].unique()))
     report = Report(
@@ -340,6 +348,18 @@ def write_report(
     )
     _write(report, tables)
     return report
+
+
+def _ranks_section(summary: pd.DataFrame, designers: list[str], envs: list[str], tables: dict[str, tuple[pd.DataFrame, str]]) -> Section:
+    """Across environments: each designer's rank by median best reward on every environment, and the mean."""
+    best = summary.pivot_table(index="designer", columns="env", values="best_median", sort=False).reindex(index=designers, columns=envs)
+    ranks = best.rank(axis=0, ascending=False, method="average")
+    ranks["mean rank"] = ranks.mean(axis=1, skipna=False)
+    tables["ranks.csv"] = (ranks.reset_index(), "rank of each designer by median best reward on every environment (1 = best, ties share), and the mean rank")
+    rows = [[d, *(("-" if pd.isna(v) else f"{v:g}") for v in ranks.loc[d])] for d in ranks.sort_values("mean rank").index]
+    table = Table("Rank by median best reward", ["designer", *envs, "mean rank"], rows,
+                  "1 = the best median best reward on that environment; a designer missing from an environment has no mean rank.")
+    return Section("Across environments", [], "How the designers order on each environment of the suite; the aggregate statistics below pool normalised scores.", tables=[table])
 
 
 def _animations(

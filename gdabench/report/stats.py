@@ -142,7 +142,7 @@ def generation_rewards(evaluations: pd.DataFrame) -> pd.DataFrame:
     invalid bodies and failed evaluations have no reward.
     """
     ok = evaluations[evaluations["status"] == OK]
-    keys = RUN_KEYS + ["generation"]
+    keys = ["env", *RUN_KEYS, "generation"]
     if ok.empty:
         return pd.DataFrame(columns=keys + ["evaluated", "min", "mean", "max"])
     grouped = ok.groupby(keys, sort=False)["reward"]
