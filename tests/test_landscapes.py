@@ -125,7 +125,7 @@ def test_target_from_text_and_from_file_for_any_shape(tmp_path):
 @pytest.mark.parametrize(
     "params, message",
     [
-        ({"shape": (4, 4)}, "default target .* is 5x5 but bodies are 4x4; give target="),
+        ({"shape": (4, 4), "target": "11111/13241/14031/20002/40004"}, "target .* is 5x5 but bodies are 4x4; give target="),
         ({"target": "11111/00000/11111/11111/11113"}, "not a valid body \\(voxels not connected\\)"),
         ({"target": "11111/11111/11111/11111/11111"}, "not a valid body \\(no actuator\\)"),
         ({"target": "no-such-file.txt"}, "nor is it an existing file"),
@@ -300,3 +300,13 @@ def test_summary_reports_evaluations_to_the_nk_optimum(tmp_path):
 )
 def test_landscapes_pass_the_environment_conformance_checks(name, params, shape):
     check_environment(registry().get("environment", name).spec.load(), params=params, shape=shape, bodies=30)
+
+
+def test_the_default_target_scales_to_other_shapes():
+    from gdabench.envs.target import DEFAULT_TARGET, default_target
+
+    big = make_env("target", shape=(10, 10))
+    assert big.target == default_target((10, 10)) and big.target.is_valid() and big.evaluate(big.target, seed=0) == 100.0
+    blocks = np.asarray(big.target.voxels).reshape(5, 2, 5, 2)
+    assert (blocks == np.asarray(DEFAULT_TARGET.voxels)[:, None, :, None]).all()  # each voxel a 2x2 block
+    assert default_target((5, 5)) == DEFAULT_TARGET and default_target((8, 12)).shape == (8, 12)

@@ -10,7 +10,8 @@ shape, so it has to be found rather than stumbled upon::
     20002      soft legs ...
     40004      ... ending in vertical actuators
 
-``target`` takes another body, as text (``'11111/13241/...'``) or as the path of a file holding
+For other shapes the default target is that body scaled by nearest neighbour (at 10x10, each of
+its voxels becomes a 2x2 block).  ``target`` takes another body, as text (``'11111/13241/...'``) or as the path of a file holding
 that text, for any shape.  ``class_credit`` (0 by default) gives that fraction of a voxel's
 credit when it has the target's material class (empty / passive: rigid or soft / actuator)
 without the exact material, which smooths the landscape.
@@ -33,6 +34,15 @@ DEFAULT_TARGET = Body.from_text("11111/13241/14031/20002/40004")
 MATERIAL_CLASS = np.zeros(N_VOXEL_TYPES, dtype=np.int8)
 MATERIAL_CLASS[[RIGID, SOFT]] = 1
 MATERIAL_CLASS[[H_ACT, V_ACT]] = 2
+
+
+def default_target(shape: tuple[int, int]) -> Body:
+    """The default target for bodies of ``shape``: the 5x5 walker, scaled by nearest neighbour
+    (each voxel of the 5x5 target becomes a block), so larger bodies face the same task."""
+    h, w = shape
+    rows = np.arange(h) * DEFAULT_TARGET.shape[0] // h
+    cols = np.arange(w) * DEFAULT_TARGET.shape[1] // w
+    return Body(np.asarray(DEFAULT_TARGET.voxels)[np.ix_(rows, cols)])
 
 
 def parse_target(value: Any) -> Body:
@@ -63,7 +73,7 @@ class TargetBody(Landscape):
     """Reward = 100 * (exact matches + class_credit * class-only matches) / voxels.
 
     Parameters:
-        target: the body to reproduce, as text (rows joined by '/') or a file holding it; default a 5x5 walker
+        target: the body to reproduce, as text (rows joined by '/') or a file holding it; default a walker (the 5x5 one, scaled to the shape)
         class_credit: credit (0-1) for a voxel of the target's material class but not its exact material
     """
 
@@ -71,11 +81,10 @@ class TargetBody(Landscape):
 
     def __init__(self, *, shape: tuple[int, int] = DEFAULT_TARGET.shape, target: str | None = None, class_credit: float = 0.0):
         super().__init__(shape=shape)
-        body = DEFAULT_TARGET if target is None else parse_target(target)
+        body = default_target(self.shape) if target is None else parse_target(target)
         if body.shape != self.shape:
-            given = "the default target" if target is None else "target"
             raise ConfigError(
-                f"target: {given} {body.text} is {body.shape[0]}x{body.shape[1]} but bodies are {self._shape_text()}; "
+                f"target: target {body.text} is {body.shape[0]}x{body.shape[1]} but bodies are {self._shape_text()}; "
                 f"give target=<body text or file> of shape {self._shape_text()}"
             )
         reason = body.invalid_reason()
