@@ -15,7 +15,7 @@ import numpy as np
 import pymunk
 import pymunk.batch
 
-from ...body import H_ACT, SOFT, V_ACT
+from ...body import H_ACT, RIGID, SOFT, V_ACT
 from .mesh import Mesh, SpringTable, build_mesh
 
 #: the rest-length setter itself: assigning through the attribute passes pymunk's typing mixin's
@@ -25,51 +25,69 @@ _SET_REST_LENGTH = pymunk.DampedSpring.rest_length.fset
 
 @dataclass(frozen=True)
 class WalkerPhysics:
-    """All physical constants of the walker simulation (SI units: m, kg, s).
+    """All physical constants of the walker simulation, in Evolution Gym's units.
 
-    Time and length scales follow Evolution Gym by similarity: with voxels of 0.1 m and
-    g = 9.81 m/s^2, an environment step of 0.01 s has the same g * dt^2 / voxel (about 0.01)
-    as Evolution Gym's step (30 updates of 1e-4 s under gravity 110), so 500 steps, body
-    speeds and rewards land on the same scale.
+    Evolution Gym's simulator works in its own units (voxels 0.1 long, 1 kg point masses,
+    gravity 110, an environment step of 30 updates of 1e-4 s); these defaults use the same
+    numbers, so positions, speeds, rewards and observations need no conversion.  Every spring
+    there has a huge nominal constant, but each update first moves its rest length 0.6% of the
+    way from its current length to its goal (``stiffness_scale``): it pulls like a spring of
+    0.6% of that constant, and the stiff remainder only resists fast changes of length, which
+    ``damping_time`` stands for.  The docs page ``environments/walker.md`` lists what was
+    matched, what was fitted and what still differs.
     """
 
     voxel_size: float = 0.1
-    #: simulated seconds per environment step, and pymunk steps within it
-    step_seconds: float = 0.01
+    #: simulated seconds per environment step (Evolution Gym: 30 updates of 1e-4 s), and pymunk steps within it
+    step_seconds: float = 0.003
     substeps: int = 8
-    #: pymunk solver iterations per substep (contacts and spring damping)
+    #: pymunk solver iterations per substep (contacts, clamps and spring damping)
     iterations: int = 4
-    gravity: float = 9.81
+    gravity: float = 110.0
     #: every voxel corner is a point mass of this many kg (shared corners count once)
     point_mass: float = 1.0
-    #: spring stiffness (N/m) one voxel contributes to each of its edges; diagonals get a fraction.
-    #: Rigid voxels have no stiffness to set: their edges and diagonals are fixed distances.
-    soft_stiffness: float = 24_000.0
-    actuator_stiffness: float = 30_000.0
-    soft_diagonal_fraction: float = 0.25
+    #: Evolution Gym's nominal constants (N/m) of an edge spring per material, and the diagonal's share
+    rigid_edge_stiffness: float = 3e8 / 3.5
+    actuator_edge_stiffness: float = 3e8 / 5
+    soft_edge_stiffness: float = 3e8 / 6
+    rigid_diagonal_fraction: float = 0.5
     actuator_diagonal_fraction: float = 0.5
-    #: damping (N s/m) of each spring per unit of its stiffness: a relaxation time in seconds
-    damping_time: float = 0.02
+    soft_diagonal_fraction: float = 0.25
+    #: the share of a nominal constant a spring pulls with (Evolution Gym's convergence factor)
+    stiffness_scale: float = 0.006
+    #: damping (N s/m) of each spring per unit of its stiffness: the time a voxel takes to follow its actuator
+    damping_time: float = 0.0045
+    #: Evolution Gym's viscous drag on every point (N s/m)
+    drag: float = 0.1
     #: Coulomb friction coefficient between the points and the terrain
-    friction: float = 2.0
+    friction: float = 1.0
     #: collision radius of a point mass (m); points collide with the terrain and each other
     point_radius: float = 0.045
+    #: driven edges stay within this strain of their length, rigid voxels' edges within rigid_strain
+    max_strain: float = 0.25
+    rigid_strain: float = 0.03
     #: instability: any point faster than this (m/s) ...
-    max_speed: float = 30.0
+    max_speed: float = 100.0
     #: ... or any voxel whose area falls below this fraction of its rest area (inverted or crushed) ...
     min_area_ratio: float = 0.1
-    #: ... or any spring longer than this multiple of its unactuated length
+    #: ... or any spring longer than this multiple of its unactuated length; and, as in Evolution
+    #: Gym, more pairs of overlapping non-neighbouring surface voxels than there are surface voxels
     max_stretch: float = 2.5
 
     def tables(self) -> dict[int, SpringTable]:
-        """Per-voxel spring constants of soft and actuator voxels."""
+        """Effective spring constants of every voxel type."""
+        s = self.stiffness_scale
 
         def table(k: float, diagonal_fraction: float) -> SpringTable:
-            kd = k * diagonal_fraction
-            return SpringTable(k, kd, k * self.damping_time, kd * self.damping_time)
+            return SpringTable(k * s, k * diagonal_fraction * s)
 
-        act = table(self.actuator_stiffness, self.actuator_diagonal_fraction)
-        return {SOFT: table(self.soft_stiffness, self.soft_diagonal_fraction), H_ACT: act, V_ACT: act}
+        act = table(self.actuator_edge_stiffness, self.actuator_diagonal_fraction)
+        return {
+            RIGID: table(self.rigid_edge_stiffness, self.rigid_diagonal_fraction),
+            SOFT: table(self.soft_edge_stiffness, self.soft_diagonal_fraction),
+            H_ACT: act,
+            V_ACT: act,
+        }
 
 
 @dataclass(frozen=True)
@@ -112,7 +130,9 @@ class VoxelSim:
         self._max_length_sq = (physics.max_stretch * m.spring_base) ** 2
         self._ends_a, self._ends_b = m.spring_ends[:, 0], m.spring_ends[:, 1]
         self._tl, self._tr, self._br, self._bl = m.voxel_corners.T
-        self._driven_constraints = [self._springs[i] for i in m.driven]
+        self._driven_springs = [self._springs[i] for i in m.driven]
+        self._pair_a, self._pair_b = _distant_surface_pairs(m)
+        self._max_overlaps = int(m.surface.sum())
 
     # -- construction --------------------------------------------------------------------------
     def _build_space(self) -> None:
@@ -120,6 +140,7 @@ class VoxelSim:
         space = pymunk.Space()
         space.gravity = (0.0, -p.gravity)
         space.iterations = p.iterations
+        space.damping = math.exp(-p.drag / p.point_mass)  # linear drag on every point, as velocity kept per second
         # pymunk's defaults assume pixel units; allow only a millimetre of overlap here
         space.collision_slop = 0.001
         self.space = space
@@ -133,14 +154,24 @@ class VoxelSim:
             space.add(body, shape)
             self._bodies.append(body)
         self._springs = []
-        for (a, b), rest, k, c, rigid in zip(m.spring_ends, m.spring_base, m.stiffness, m.damping, m.spring_rigid):
-            if rigid:  # a fixed distance, held by pymunk's constraint solver
-                spring = pymunk.PinJoint(self._bodies[a], self._bodies[b])
-            else:
-                spring = pymunk.DampedSpring(self._bodies[a], self._bodies[b], (0, 0), (0, 0), float(rest), float(k), float(c))
+        driven = set(m.driven.tolist())
+        for s, ((a, b), rest, k) in enumerate(zip(m.spring_ends, m.spring_base, m.stiffness)):
+            body_a, body_b = self._bodies[a], self._bodies[b]
+            if m.rigid_edge[s]:  # held within rigid_strain: a fixed distance for pymunk's solver
+                joint = pymunk.PinJoint(body_a, body_b)
+                self._springs.append(joint)
+                joint.collide_bodies = False
+                space.add(joint)
+                continue
+            spring = pymunk.DampedSpring(body_a, body_b, (0, 0), (0, 0), float(rest), float(k), float(k * p.damping_time))
             spring.collide_bodies = False
             space.add(spring)
             self._springs.append(spring)
+            if s in driven:  # an actuator can pull it far: clamp it as Evolution Gym does
+                r = float(rest)
+                clamp = pymunk.SlideJoint(body_a, body_b, (0, 0), (0, 0), r * (1 - p.max_strain), r * (1 + p.max_strain))
+                clamp.collide_bodies = False
+                space.add(clamp)
         self._separate_coincident_points()
         # the terrain block and the endless floor: their tops lie one point radius below the
         # surfaces, so resting point masses sit exactly on them; being a metre thick keeps fast
@@ -165,7 +196,7 @@ class VoxelSim:
     def set_ratios(self, ratios: np.ndarray) -> None:
         """Target length ratio of every actuator (action order); rest lengths change at once."""
         rest = self.mesh.rest_lengths(ratios)
-        for spring, length in zip(self._driven_constraints, rest.tolist()):
+        for spring, length in zip(self._driven_springs, rest.tolist()):
             _SET_REST_LENGTH(spring, length)
 
     def step(self) -> None:
@@ -192,6 +223,17 @@ class VoxelSim:
         self.velocities = self._state[:, 2:]
 
     # -- checks --------------------------------------------------------------------------------
+    def self_overlaps(self) -> int:
+        """Evolution Gym's self-collision count: ordered pairs of surface voxels, not neighbours in
+        the body grid, whose bounding boxes touch or overlap."""
+        if not len(self._pair_a):
+            return 0
+        quads = self.positions[self.mesh.voxel_corners]
+        low, high = quads.min(axis=1), quads.max(axis=1)
+        a, b = self._pair_a, self._pair_b
+        apart = (low[a] > high[b]) | (low[b] > high[a])
+        return 2 * int((~apart.any(axis=1)).sum())
+
     def instability(self) -> str | None:
         """Why the current state is not a trustworthy simulation any more, or None."""
         p, pos, vel = self.physics, self.positions, self.velocities
@@ -210,4 +252,16 @@ class VoxelSim:
             return "a spring stretched beyond max_stretch"
         if (pos[:, 1] < self.terrain.surface(pos[:, 0]) - 0.5 * p.voxel_size).any():
             return "a point went through the terrain"
+        if self.self_overlaps() > self._max_overlaps:
+            return "the body overlaps itself (Evolution Gym's self-collision count)"
         return None
+
+
+def _distant_surface_pairs(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs (a < b) of surface voxels more than one cell apart in the body grid."""
+    index = np.flatnonzero(mesh.surface)
+    a, b = np.triu_indices(len(index), k=1)
+    a, b = index[a], index[b]
+    cells = mesh.voxel_cells
+    distant = np.abs(cells[a] - cells[b]).max(axis=1) > 1
+    return a[distant], b[distant]
