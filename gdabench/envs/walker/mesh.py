@@ -14,7 +14,8 @@ The structure is Evolution Gym's (its ``ObjectCreator`` and ``PhysicsEngine``):
   four edges within a few percent of their length (:attr:`Mesh.rigid_edge`);
 * actuators drive edges only, never diagonals: a horizontal actuator (code 3) with ratio ``r``
   wants its top and bottom edges ``r`` voxels long, a vertical one (code 4) its left and right
-  edges; an edge driven by two actuators wants the mean of their ratios.
+  edges; an edge driven by two actuators wants the mean of their ratios, and an edge shared with
+  a rigid voxel stays as the rigid voxel holds it.
 """
 
 from __future__ import annotations
@@ -197,7 +198,8 @@ def build_mesh(
         diagonal_spring(tr, bl, code)
         diagonal_spring(tl, br, code)
 
-    driven = np.array(sorted(drive), dtype=np.intp)
+    # a rigid voxel holds its edges within a few percent: an actuator beside it cannot drive that edge
+    driven = np.array(sorted(s for s in drive if not rigid_edge[s]), dtype=np.intp)
     pairs = [(slot, a) for slot, s in enumerate(driven.tolist()) for a in drive[s]]
     pair_arr = np.array(pairs, dtype=np.intp).reshape(-1, 2)
     return Mesh(
