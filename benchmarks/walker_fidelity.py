@@ -249,6 +249,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--physics", nargs="*", default=[], metavar="KEY=VALUE", help="override WalkerPhysics fields")
     parser.add_argument("--evogym-cache", type=Path, help="JSON lines file of Evolution Gym episodes to reuse and extend")
     parser.add_argument("--json", type=Path, help="write every episode of both simulators here")
+    parser.add_argument("--shard", default="0/1", metavar="K/N", help="play only bodies K, K+N, K+2N, ... of the set (to fill a cache in parallel)")
     args = parser.parse_args(argv)
     gaits = args.gaits.split(",")
     unknown = [g for g in gaits if g not in GAITS]
@@ -265,6 +266,8 @@ def main(argv: list[str] | None = None) -> None:
         cases = [c for c in cases if c.seed - args.seed * 1_000_003 < 500_000]
     if args.part != "all":
         cases = [c for c in cases if c.part == args.part]
+    shard, n_shards = (int(v) for v in args.shard.split("/"))
+    cases = cases[shard::n_shards]
     cache = load_cache(args.evogym_cache)
     cache_out = args.evogym_cache.open("a") if args.evogym_cache else None
     rows = []
