@@ -34,7 +34,7 @@ import math
 import random
 import sys
 import time
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any, Callable
 
@@ -43,6 +43,7 @@ import numpy as np
 
 import gdabench
 from gdabench.controllers.open_loop import Pattern
+from gdabench.errors import ConfigError
 from gdabench.envs.walker import ENV_ID
 from gdabench.envs.walker.sim import WalkerPhysics
 
@@ -220,18 +221,6 @@ def print_table(name: str, t: dict[str, float], per_gait: dict[str, float]) -> N
     print("  Spearman per gait: " + ", ".join(f"{g} {v:.2f}" for g, v in per_gait.items()))
 
 
-def parse_physics(items: list[str]) -> WalkerPhysics:
-    known = {f.name for f in fields(WalkerPhysics)}
-    changes = {}
-    for item in items:
-        key, _, value = item.partition("=")
-        if key not in known:
-            print(f"error: unknown physics parameter {key!r}; known: {', '.join(sorted(known))}", file=sys.stderr)
-            raise SystemExit(2)
-        changes[key] = json.loads(value)
-    return replace(WalkerPhysics(), **changes)
-
-
 def load_cache(path: Path | None) -> dict[str, dict[str, Any]]:
     if path is None or not path.exists():
         return {}
@@ -256,7 +245,11 @@ def main(argv: list[str] | None = None) -> None:
     if unknown:
         print(f"error: unknown gait {unknown[0]!r}; gaits: {', '.join(GAITS)}", file=sys.stderr)
         raise SystemExit(2)
-    physics = parse_physics(args.physics)
+    try:
+        physics = WalkerPhysics().with_overrides(args.physics)
+    except ConfigError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None
     try:
         cases = body_set(args.seed, args.random_bodies)
     except ImportError as exc:

@@ -16,31 +16,20 @@ from __future__ import annotations
 
 import argparse
 import collections
-import json
+import sys
 import time
-from dataclasses import fields, replace
 
 import gymnasium
 import numpy as np
 
 import gdabench
 from gdabench.controllers.open_loop import OpenLoop
+from gdabench.errors import ConfigError
 from gdabench.envs.walker import ENV_ID
 from gdabench.envs.walker.sim import WalkerPhysics
 
 #: per-step centre-of-mass motion no stable simulation produces (100 m/s, max_speed, for 0.003 s)
 IMPLAUSIBLE_STEP = 0.3
-
-
-def parse_physics(items: list[str]) -> WalkerPhysics:
-    known = {f.name: f.type for f in fields(WalkerPhysics)}
-    changes = {}
-    for item in items:
-        key, _, value = item.partition("=")
-        if key not in known:
-            raise SystemExit(f"unknown physics parameter {key!r}; known: {', '.join(known)}")
-        changes[key] = json.loads(value)
-    return replace(WalkerPhysics(), **changes)
 
 
 def episode(body: gdabench.Body, physics: WalkerPhysics, rng: np.random.Generator, steps: int, actions: str) -> dict:
@@ -79,7 +68,11 @@ def main() -> None:
     parser.add_argument("--actions", choices=("random", "open-loop"), default="random")
     parser.add_argument("--physics", nargs="*", default=[], metavar="KEY=VALUE", help="override WalkerPhysics fields")
     args = parser.parse_args()
-    physics = parse_physics(args.physics)
+    try:
+        physics = WalkerPhysics().with_overrides(args.physics)
+    except ConfigError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None
     shape = tuple(int(v) for v in args.shape.split("x"))
     body_rng, action_rng = (np.random.default_rng(s) for s in np.random.SeedSequence(args.seed).spawn(2))
     reasons: collections.Counter[str] = collections.Counter()

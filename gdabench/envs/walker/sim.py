@@ -1,21 +1,23 @@
 """Soft-voxel simulation on pymunk: point masses joined by damped springs, on flat rigid terrain.
 
-Every physical constant lives in :class:`WalkerPhysics` (the README's "Walker physics" section
-explains the choices).  :class:`VoxelSim` builds the pymunk space for one body, applies actuator
+Every physical constant lives in :class:`WalkerPhysics` (docs/environments/walker.md explains
+the choices).  :class:`VoxelSim` builds the pymunk space for one body, applies actuator
 ratios as spring rest lengths, advances one environment step at a time and reports when the
 simulation has become unstable instead of letting NaNs or tangled voxels through.
 """
 
 from __future__ import annotations
 
+import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 import pymunk
 import pymunk.batch
 
 from ...body import H_ACT, RIGID, SOFT, V_ACT
+from ...errors import ConfigError
 from .mesh import Mesh, SpringTable, build_mesh
 
 #: the rest-length setter itself: assigning through the attribute passes pymunk's typing mixin's
@@ -64,13 +66,11 @@ class WalkerPhysics:
     #: a point in contact feels 1,200 v while it is pushed out with at least 10,500 N, so over
     #: time it gets 1200 / 10500 = 0.114 per newton of load.
     ground_friction: float = 0.114
-    #: restitution of a point hitting the ground
-    restitution: float = 0.0
     #: collision radius of a point mass (m); points collide with the terrain and each other
     point_radius: float = 0.045
-    #: driven edges stay within this strain of their length, rigid voxels' edges within rigid_strain
+    #: driven edges stay within this strain of their length (rigid voxels' edges, held within 3% there,
+    #: are fixed distances here)
     max_strain: float = 0.25
-    rigid_strain: float = 0.03
     #: instability: any point faster than this (m/s) ...
     max_speed: float = 100.0
     #: ... or any voxel whose area falls below this fraction of its rest area (inverted or crushed) ...
@@ -78,6 +78,20 @@ class WalkerPhysics:
     #: ... or any spring longer than this multiple of its unactuated length; and, as in Evolution
     #: Gym, more pairs of overlapping non-neighbouring surface voxels than there are surface voxels
     max_stretch: float = 2.5
+
+    def with_overrides(self, items: list[str]) -> WalkerPhysics:
+        """A copy with fields changed by ``KEY=VALUE`` strings (values in JSON), for scripts."""
+        known = {f.name for f in fields(self)}
+        changes = {}
+        for item in items:
+            key, _, value = item.partition("=")
+            if key not in known:
+                raise ConfigError(f"unknown physics parameter {key!r}; known: {', '.join(sorted(known))}")
+            try:
+                changes[key] = json.loads(value)
+            except json.JSONDecodeError:
+                raise ConfigError(f"physics parameter {key}: {value!r} is not a number") from None
+        return replace(self, **changes)
 
     def tables(self) -> dict[int, SpringTable]:
         """Effective spring constants of every voxel type."""
@@ -158,14 +172,14 @@ class VoxelSim:
             body.position = (float(x), float(y))
             shape = pymunk.Circle(body, p.point_radius)
             shape.friction = 0.0  # friction with the ground is applied by _ground_friction
-            shape.elasticity = p.restitution
+            shape.elasticity = 0.0
             space.add(body, shape)
             self._bodies.append(body)
         self._springs = []
         driven = set(m.driven.tolist())
         for s, ((a, b), rest, k) in enumerate(zip(m.spring_ends, m.spring_base, m.stiffness)):
             body_a, body_b = self._bodies[a], self._bodies[b]
-            if m.rigid_edge[s]:  # held within rigid_strain: a fixed distance for pymunk's solver
+            if m.rigid_edge[s]:  # Evolution Gym holds it within 3%: a fixed distance here
                 joint = pymunk.PinJoint(body_a, body_b)
                 self._springs.append(joint)
                 joint.collide_bodies = False
@@ -188,7 +202,6 @@ class VoxelSim:
         for box in (pymunk.BB(t.x_start, t.top - 1.0, t.x_end, t.top - r), pymunk.BB(-1e4, t.floor - 1.0, 1e4, t.floor - r)):
             ground = pymunk.Poly.create_box_bb(space.static_body, box)
             ground.friction = 0.0
-            ground.elasticity = 1.0  # pymunk multiplies the two elasticities: the points' value rules
             space.add(ground)
 
     def _separate_coincident_points(self) -> None:
