@@ -1,4 +1,4 @@
-"""The walker task: pymunk soft-voxel simulator, gdabench/Walker-v0, the walker env, open-loop."""
+"""The walker task: pymunk soft-voxel simulator, gdabench/Walker-v1, the walker env, open-loop."""
 
 from __future__ import annotations
 
@@ -18,8 +18,8 @@ import gdabench
 from gdabench.runner import compare as run_experiment
 from gdabench import Body, ConfigError, Evaluation, make_controller, make_env
 from gdabench.controllers.open_loop import OpenLoop, Pattern
-from gdabench.envs.walker import ENV_ID, gym_env
-from gdabench.envs.walker.mesh import EDGE, build_mesh
+from gdabench.envs.walker import ENV_ID, RETIRED_IDS, gym_env
+from gdabench.envs.walker.mesh import DIAGONAL, EDGE, build_mesh
 from gdabench.envs.walker.render import save_gif
 from gdabench.envs.walker.sim import WalkerPhysics
 
@@ -47,8 +47,8 @@ def hold(env: gymnasium.Env, ratio: float, steps: int) -> float:
 
 
 def inchworm_action(cells: np.ndarray, t: int, *, mirrored: bool = False, period: int = 40) -> np.ndarray:
-    """A hand-made gait: lift the front leg while the bridge extends, plant it, then lift the back
-    leg while the bridge contracts.  ``mirrored`` swaps the legs' roles (front becomes back)."""
+    """A hand-made gait: lift the right leg while the bridge extends, plant it, then lift the left
+    leg while the bridge contracts.  ``mirrored`` swaps the legs' roles."""
     bridge = cells[:, 2] == 3
     legs = cells[:, 2] == 4
     front = legs & (cells[:, 1] == (cells[:, 1].min() if mirrored else cells[:, 1].max()))
@@ -74,8 +74,19 @@ def inchworm(env: gymnasium.Env, *, mirrored: bool = False, steps: int = 500) ->
 
 # -- registration and input checking -------------------------------------------------------------
 def test_import_registers_the_env_without_importing_pymunk():
-    code = "import sys, gymnasium, gdabench; assert 'gdabench/Walker-v0' in gymnasium.registry; assert 'pymunk' not in sys.modules"
+    code = "import sys, gymnasium, gdabench; assert 'gdabench/Walker-v1' in gymnasium.registry; assert 'pymunk' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_the_retired_v0_id_fails_with_one_line_naming_v1():
+    assert ENV_ID == "gdabench/Walker-v1" and RETIRED_IDS == ("gdabench/Walker-v0",)
+    with pytest.raises(ConfigError, match="gdabench/Walker-v1") as info:
+        gymnasium.make("gdabench/Walker-v0", body=WALKER_BODY)
+    assert "\n" not in str(info.value) and "retired" in str(info.value)
+
+
+def test_the_walker_environment_records_its_physics_version():
+    assert make_env("walker").version == "gdabench/Walker-v1"
 
 
 @pytest.mark.parametrize(
@@ -141,8 +152,9 @@ def test_observation_is_com_velocity_then_relative_positions():
     obs, *_ = env.step(np.full(env.action_space.shape, 1.4))
     sim = env.unwrapped.sim
     rel = sim.positions - sim.positions.mean(axis=0)
-    np.testing.assert_allclose(obs[:2], sim.velocities.mean(axis=0))
-    np.testing.assert_allclose(obs[2:], np.concatenate([rel[:, 0], rel[:, 1]]))
+    # scaled by the voxel size, as Evolution Gym's benchmark tasks scale theirs
+    np.testing.assert_allclose(obs[:2], VOXEL * sim.velocities.mean(axis=0))
+    np.testing.assert_allclose(obs[2:], VOXEL * np.concatenate([rel[:, 0], rel[:, 1]]))
     assert np.abs(obs[:2]).max() > 0.0  # the body moves
 
 
@@ -161,7 +173,7 @@ def test_goal_gives_bonus_and_ends_the_episode():
     env.unwrapped.goal_x = com(env)[0] + 0.05  # the real goal (x = 9.9) is too far for a test
     for t in range(300):
         before = com(env)[0]
-        _, reward, terminated, truncated, _ = env.step(inchworm_action(env.unwrapped.actuator_voxels, t))
+        _, reward, terminated, truncated, _ = env.step(inchworm_action(env.unwrapped.actuator_voxels, t, mirrored=True))
         if terminated:
             break
     assert terminated and not truncated
@@ -210,18 +222,46 @@ def test_mesh_shares_corners_and_edges_like_evolution_gym():
     assert corner_only.n_points == 15 + 1
     env = make("311/101/110")
     env.reset(seed=0)
-    assert hold(env, 1.0, 100) == pytest.approx(0.0, abs=1e-3)  # and they do not push each other apart
+    # they do not push each other apart: the body only creeps, as in Evolution Gym (0.019 there)
+    assert hold(env, 1.0, 100) == pytest.approx(0.0, abs=0.02)
 
 
-def test_shared_edge_rest_length_is_the_stiffness_weighted_mean():
+def edge_between(mesh, a: tuple[float, float], b: tuple[float, float]) -> int:
+    """Index of the spring joining the points at positions a and b."""
+    index = {tuple(np.round(p, 6)): i for i, p in enumerate(mesh.points)}
+    ends = {tuple(sorted(e)): s for s, e in enumerate(mesh.spring_ends.tolist())}
+    return ends[tuple(sorted((index[a], index[b])))]
+
+
+def test_actuators_drive_their_edges_as_evolution_gym_does():
+    tables = WalkerPhysics().tables()
+    # horizontal actuators: top and bottom edges only, never diagonals; a shared edge takes the mean
+    mesh = build_mesh(np.array([[3, 0], [3, 2]]), tables, voxel_size=VOXEL, origin=(0.0, 0.0))
+    top, shared, bottom = (edge_between(mesh, (0.0, y), (0.1, y)) for y in (0.2, 0.1, 0.0))
+    assert set(mesh.driven.tolist()) == {top, shared, bottom}
+    assert not (mesh.spring_kind[mesh.driven] == DIAGONAL).any()
+    rest = dict(zip(mesh.driven.tolist(), mesh.rest_lengths(np.array([1.6, 0.8]))))
+    assert rest[top] == pytest.approx(0.16) and rest[bottom] == pytest.approx(0.08)
+    assert rest[shared] == pytest.approx(0.12)
+    # an actuator beside a soft voxel drives the whole shared edge; beside a rigid voxel it cannot
+    soft = build_mesh(np.array([[4, 2]]), tables, voxel_size=VOXEL, origin=(0.0, 0.0))
+    assert edge_between(soft, (0.1, 0.1), (0.1, 0.0)) in soft.driven
+    rigid = build_mesh(np.array([[4, 1]]), tables, voxel_size=VOXEL, origin=(0.0, 0.0))
+    assert edge_between(rigid, (0.1, 0.1), (0.1, 0.0)) not in rigid.driven
+    assert rigid.rigid_edge[edge_between(rigid, (0.1, 0.1), (0.1, 0.0))]
+
+
+def test_spring_constants_follow_evolution_gym():
     physics = WalkerPhysics()
-    mesh = build_mesh(np.array([[3], [2]]), physics.tables(), voxel_size=VOXEL, origin=(0.1, 0.1))
-    # the edge between the actuator (top) and the soft voxel (bottom) is two parallel springs
-    shared = [i for i in mesh.driven if mesh.spring_kind[i] == EDGE and mesh.stiffness[i] > physics.actuator_stiffness]
-    assert len(shared) == 1
-    rest = dict(zip(mesh.driven.tolist(), mesh.rest_lengths(np.array([1.6]))))
-    ka, ks = physics.actuator_stiffness, physics.soft_stiffness
-    assert rest[shared[0]] == pytest.approx(VOXEL * (1.6 * ka + ks) / (ka + ks))
+    tables = physics.tables()
+    # a shared edge takes the constant of the last soft or actuator voxel in row-major order
+    mesh = build_mesh(np.array([[2, 3], [1, 1]]), tables, voxel_size=VOXEL, origin=(0.0, 0.0))
+    assert mesh.stiffness[edge_between(mesh, (0.1, 0.2), (0.1, 0.1))] == tables[3].edge_stiffness  # soft, then actuator
+    assert mesh.stiffness[edge_between(mesh, (0.0, 0.1), (0.1, 0.1))] == tables[2].edge_stiffness  # soft over rigid
+    assert mesh.stiffness[edge_between(mesh, (0.0, 0.0), (0.1, 0.0))] == tables[1].edge_stiffness  # rigid only
+    assert tables[2].edge_stiffness == pytest.approx(0.006 * 3e8 / 6)
+    assert tables[2].diagonal_stiffness == pytest.approx(tables[2].edge_stiffness / 4)
+    assert tables[3].diagonal_stiffness == pytest.approx(tables[3].edge_stiffness / 2)
 
 
 def test_resting_bodies_settle_and_stay_above_ground():
@@ -237,25 +277,75 @@ def test_resting_bodies_settle_and_stay_above_ground():
         assert sim.positions[:, 1].max() == pytest.approx(top, abs=1e-4), body  # and stays there
 
 
-def test_horizontal_actuator_lengthens_along_x_only():
-    for ratio in (1.6, 0.6):
+def test_horizontal_actuator_lengthens_along_x_only_within_the_strain_clamp():
+    # ratio 1.2 reaches Evolution Gym's width (its unactuated diagonals hold it back); 1.6 and 0.6
+    # stop at the +-25% clamp, as there
+    for ratio, expected in ((1.2, 0.1164), (1.6, 0.125), (0.6, 0.075)):
         env = make("3")
         env.reset(seed=0)
-        hold(env, ratio, 60)
+        hold(env, ratio, 30)
         p = env.unwrapped.sim.positions  # TL, TR, BL, BR
         width = (p[1, 0] - p[0, 0] + p[3, 0] - p[2, 0]) / 2
         height = (p[0, 1] - p[2, 1] + p[1, 1] - p[3, 1]) / 2
-        assert width == pytest.approx(ratio * VOXEL, rel=0.1)
+        assert width == pytest.approx(expected, rel=0.02)
         assert height == pytest.approx(VOXEL, rel=0.1)
+
+
+def test_actuators_follow_at_evolution_gyms_pace():
+    """Width of one horizontal actuator after each of the first steps at ratio 1.2, as measured
+    on Evolution Gym 2.0 (0.1048, 0.1083, 0.1107, 0.1124)."""
+    env = make("3")
+    env.reset(seed=0)
+    widths = []
+    for _ in range(4):
+        hold(env, 1.2, 1)
+        p = env.unwrapped.sim.positions
+        widths.append((p[1, 0] - p[0, 0] + p[3, 0] - p[2, 0]) / 2)
+    np.testing.assert_allclose(widths, [0.1048, 0.1083, 0.1107, 0.1124], rtol=0.01)
 
 
 def test_vertical_actuator_lengthens_along_y_only():
     env = make("4")
     env.reset(seed=0)
-    hold(env, 1.6, 60)
+    hold(env, 1.6, 30)
     p = env.unwrapped.sim.positions
-    assert p[0, 1] - p[2, 1] == pytest.approx(1.6 * VOXEL, rel=0.1)
+    assert p[0, 1] - p[2, 1] == pytest.approx(1.25 * VOXEL, rel=0.02)
     assert p[1, 0] - p[0, 0] == pytest.approx(VOXEL, rel=0.1)
+
+
+def test_ground_friction_slows_sliding_points_in_proportion_to_their_load():
+    env = make("22222/22232")
+    env.reset(seed=0)
+    hold(env, 1.0, 20)
+    sim = env.unwrapped.sim
+    for body in sim._bodies:
+        body.velocity = (1.0, float(body.velocity[1]))
+    hold(env, 1.0, 1)
+    slowed = sim.velocities[:, 0].mean()
+    assert 0.0 < slowed < 0.98  # friction acts ...
+    light = make("22222/22232", physics=replace(WalkerPhysics(), ground_friction=0.0))
+    light.reset(seed=0)
+    hold(light, 1.0, 20)
+    for body in light.unwrapped.sim._bodies:
+        body.velocity = (1.0, float(body.velocity[1]))
+    hold(light, 1.0, 1)
+    assert light.unwrapped.sim.velocities[:, 0].mean() > 0.99  # ... and only friction (and drag)
+
+
+def test_self_collision_count_follows_evolution_gym():
+    env = make("33333")  # five surface voxels from x = 0.1 to 0.6
+    sim = env.unwrapped.sim
+    assert sim.self_overlaps() == 0  # at rest, only neighbours touch
+    tl, tr, br, bl = sim.mesh.voxel_corners[4]
+    folded = sim.positions.copy()
+    folded[[tr, br], 0] = 0.35  # the last voxel's right side folds back over the middle voxel
+    sim.positions = folded
+    assert sim.self_overlaps() == 2  # one pair, counted both ways as Evolution Gym does
+    assert "overlaps itself" not in sim.instability()  # not more than the 5 surface voxels (but inside out)
+    folded[[tr, br], 0] = 0.15  # ... and over the first three
+    sim.positions = folded
+    assert sim.self_overlaps() == 6
+    assert "overlaps itself" in sim.instability()
 
 
 def test_rigid_block_with_one_actuator_does_not_drift():
@@ -280,17 +370,20 @@ def test_voxels_that_are_not_joined_collide_instead_of_overlapping():
     left = [i for i, (x, y) in enumerate(env.unwrapped.sim.mesh.points) if x == pytest.approx(0.2) and y > 0.25]
     right = [i for i, (x, y) in enumerate(env.unwrapped.sim.mesh.points) if x == pytest.approx(0.3) and y > 0.25]
     gaps = [np.linalg.norm(p[a] - p[b]) for a in left for b in right]
-    # the prongs' points touch (without contact the slot would close to about 0.057 m) and stop there
+    # the prongs' points touch (without contact the slot would close to about 0.075 m) and stop there
     assert min(gaps) == pytest.approx(2 * physics.point_radius, abs=0.003)
 
 
-def test_hand_made_gait_moves_forward_and_its_mirror_backward():
+def test_hand_made_gait_moves_the_way_evolution_gym_moves_it():
+    """On Evolution Gym 2.0 this gait returns -0.28 and its mirror +1.09 (the body walks towards
+    the leg it lifts while the bridge contracts); the uncalibrated v0 physics had both signs the
+    other way round."""
     env = make(WALKER_BODY)
     env.reset(seed=0)
-    forward = inchworm(env)
+    backward = inchworm(env)
     env.reset(seed=0)
-    backward = inchworm(env, mirrored=True)
-    assert forward > 0.3
+    forward = inchworm(env, mirrored=True)
+    assert forward > 0.5
     assert backward < -0.1
 
 
@@ -326,7 +419,7 @@ def test_rgb_array_frames_render_headless_and_save_as_gif(tmp_path):
 
 # -- open-loop controller ------------------------------------------------------------------------
 class _ActuatorProbe(gymnasium.Env):
-    """A non-physics env with Walker-v0's interface: rewards the mean action, records actions."""
+    """A non-physics env with the walker's interface: rewards the mean action, records actions."""
 
     metadata = {"render_modes": []}
 
@@ -385,7 +478,7 @@ def test_open_loop_trials_keep_the_best_pattern_and_follow_the_seed():
     assert OpenLoop(trials=3).patterns(4)[1] != patterns[1]
 
 
-def test_open_loop_is_registered_and_scores_a_body_on_walker_v0():
+def test_open_loop_is_registered_and_scores_a_body_on_the_walker():
     ctrl = make_controller("open-loop", trials=1)
     result = ctrl.evaluate(lambda: make(WALKER_BODY), seed=0)
     env = make(WALKER_BODY)
@@ -432,11 +525,12 @@ def test_compare_runs_the_walker_with_open_loop(tmp_path):
     ok = rows[rows["status"] == "ok"]
     assert len(ok) == 4 and ok["reward"].notna().all()
     assert set(ok["env_steps"]) == {500}
+    assert set(rows["env_version"]) == {"gdabench/Walker-v1"}  # old runs stay interpretable
 
 
 def test_physics_defaults_are_one_frozen_dataclass():
     physics = WalkerPhysics()
     with pytest.raises(Exception):
-        physics.friction = 2.0  # type: ignore[misc]
-    assert replace(physics, friction=2.0).friction == 2.0
+        physics.ground_friction = 2.0  # type: ignore[misc]
+    assert replace(physics, ground_friction=2.0).ground_friction == 2.0
     assert physics.voxel_size == VOXEL

@@ -2,7 +2,7 @@
 
 The harness passes the controller chosen with ``--controller``; scoring and report animations
 come from :class:`~gdabench.envs.controlled.ControlledEnvironment`, which hands the controller
-fresh ``gdabench/Walker-v0`` Gymnasium environments, so a controller written against Gymnasium
+fresh ``gdabench/Walker-v1`` Gymnasium environments, so a controller written against Gymnasium
 (open-loop, PPO, ...) never needs to know about pymunk.
 """
 
@@ -18,12 +18,15 @@ from . import ENV_ID
 
 
 def make_walker(body: Body, **kwargs: Any) -> gymnasium.Env:
-    """A fresh ``gdabench/Walker-v0`` for ``body`` (picklable through functools.partial)."""
+    """A fresh ``gdabench/Walker-v1`` for ``body`` (picklable through functools.partial)."""
     return gymnasium.make(ENV_ID, body=body.text, **kwargs)
 
 
 class Walker(ControlledEnvironment):
     """Evolution Gym's Walker-v0 on the pymunk simulator; needs a controller."""
+
+    #: the physics every row records (``env_version``)
+    version = ENV_ID
 
     def make_env(self, body: Body, **kwargs: Any) -> gymnasium.Env:
         return make_walker(body, **kwargs)

@@ -1,11 +1,11 @@
-"""``gdabench/Walker-v0``: Evolution Gym's Walker-v0 task as a Gymnasium environment on pymunk.
+"""``gdabench/Walker-v1``: Evolution Gym's Walker-v0 task as a Gymnasium environment on pymunk.
 
 Conventions (Evolution Gym's): the body's grid starts at voxel (1, 1) on flat rigid terrain
 100 voxels long; an episode lasts 500 steps (the registered time limit); the reward of a step
 is the change in x of the mean point-mass position; passing x = 9.9 adds +1 and ends the
 episode; an unstable simulation gives -3 and ends it.  The observation is the centre-of-mass
 velocity (2) followed by every point's position relative to the centre of mass (all x, then
-all y); the action is one target length ratio in [0.6, 1.6] per actuator voxel, in the order
+all y), each multiplied by the voxel size as Evolution Gym's benchmark tasks do; the action is one target length ratio in [0.6, 1.6] per actuator voxel, in the order
 of :attr:`WalkerEnv.actuator_voxels`.  The episode return includes the final step's reward
 (Evolution Gym 1.0's scoring), so crossing the course scores about 10.5.
 """
@@ -23,7 +23,7 @@ from ...errors import GdabenchError, MalformedBodyError
 from .render import Renderer
 from .sim import Terrain, VoxelSim, WalkerPhysics
 
-#: Walker-v0's geometry in voxels
+#: Walker-v0's geometry in voxels (Evolution Gym's task)
 TERRAIN_VOXELS = 100
 START_VOXEL = (1, 1)
 GOAL_VOXELS = 99
@@ -38,12 +38,12 @@ def checked_body(body: Any) -> Body:
     except GdabenchError:
         raise
     except Exception as exc:  # noqa: BLE001 - anything as_body chokes on is a malformed body
-        raise MalformedBodyError(f"malformed body for Walker-v0: {exc}") from None
+        raise MalformedBodyError(f"malformed body for the walker: {exc}") from None
     reason = parsed.invalid_reason()
     if reason is not None:
-        raise MalformedBodyError(f"invalid body for Walker-v0 ({parsed.text}): {reason}")
+        raise MalformedBodyError(f"invalid body for the walker ({parsed.text}): {reason}")
     if START_VOXEL[0] + parsed.shape[1] > TERRAIN_VOXELS:
-        raise MalformedBodyError(f"body {parsed.shape[0]}x{parsed.shape[1]} is wider than Walker-v0's terrain")
+        raise MalformedBodyError(f"body {parsed.shape[0]}x{parsed.shape[1]} is wider than the walker's terrain")
     return parsed
 
 
@@ -87,7 +87,7 @@ class WalkerEnv(gymnasium.Env):
     def _observe(self) -> np.ndarray:
         pos, vel = self.sim.positions, self.sim.velocities
         rel = pos - pos.mean(axis=0)
-        return np.concatenate([vel.mean(axis=0), rel[:, 0], rel[:, 1]])
+        return self.physics.voxel_size * np.concatenate([vel.mean(axis=0), rel[:, 0], rel[:, 1]])
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)  # the simulation itself is deterministic: the seed changes nothing
@@ -98,9 +98,9 @@ class WalkerEnv(gymnasium.Env):
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         ratios = np.asarray(action, dtype=np.float64).reshape(-1)
         if ratios.shape != self.action_space.shape:
-            raise ValueError(f"Walker-v0 expects {self.action_space.shape[0]} actions (one per actuator), got {ratios.shape[0]}")
+            raise ValueError(f"the walker expects {self.action_space.shape[0]} actions (one per actuator), got {ratios.shape[0]}")
         if not np.isfinite(ratios).all():
-            raise ValueError("Walker-v0 actions must be finite numbers")
+            raise ValueError("walker actions must be finite numbers")
         self._untouched = False
         self.sim.set_ratios(np.clip(ratios, MIN_RATIO, MAX_RATIO))
         self.sim.step()

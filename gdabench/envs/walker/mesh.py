@@ -1,19 +1,21 @@
 """The mass-spring mesh of a voxel body: point masses, springs and how actuators drive them.
 
 Pure topology and geometry (numpy only); :mod:`.sim` turns a :class:`Mesh` into pymunk objects.
+The structure is Evolution Gym's (its ``ObjectCreator`` and ``PhysicsEngine``):
 
-As in Evolution Gym, every voxel is a square cell whose four corners are point masses.  Voxels
-that share an edge share that edge's two corners; voxels that touch only at a corner (and
-have no common edge neighbour there) get separate, coincident corner points, because Evolution
-Gym connects voxels only through edges.  Each voxel contributes six springs: its four edges
-and its two diagonals; a rigid voxel instead makes all six fixed distances (and so does the
-edge it shares with a soft or actuator voxel).  An edge shared by two voxels is one spring whose stiffness is the sum
-of the two voxels' contributions and whose rest length is their stiffness-weighted mean, which
-is exactly two parallel springs merged into one.
-
-Actuators change rest lengths: a horizontal actuator (code 3) with ratio ``r`` wants its top
-and bottom edges ``r`` times their voxel length and its diagonals ``hypot(r, 1)`` voxel lengths
-(the diagonals of an ``r x 1`` rectangle); a vertical actuator (code 4) does the same along y.
+* every voxel is a square cell whose four corners are point masses; voxels that share an edge
+  share that edge's two corners, voxels that touch only at a corner (and have no common edge
+  neighbour there) keep separate, coincident points, because voxels join only through edges;
+* every voxel edge is one spring, shared by the (up to two) voxels on either side; each voxel
+  adds its two diagonals as springs of its own;
+* a shared edge takes the constant of the last soft or actuator voxel touching it, in row-major
+  order from the top row (Evolution Gym creates edges with the rigid constant and lets each
+  soft or actuator voxel overwrite the constants of its four edges); rigid voxels also keep their
+  four edges within a few percent of their length (:attr:`Mesh.rigid_edge`);
+* actuators drive edges only, never diagonals: a horizontal actuator (code 3) with ratio ``r``
+  wants its top and bottom edges ``r`` voxels long, a vertical one (code 4) its left and right
+  edges; an edge driven by two actuators wants the mean of their ratios, and an edge shared with
+  a rigid voxel stays as the rigid voxel holds it.
 """
 
 from __future__ import annotations
@@ -31,16 +33,10 @@ EDGE, DIAGONAL = 0, 1
 
 @dataclass(frozen=True)
 class SpringTable:
-    """Stiffness and damping of one voxel type's springs (per voxel, before merging)."""
+    """Stiffness (N/m) of one voxel type's edge and diagonal springs."""
 
     edge_stiffness: float
     diagonal_stiffness: float
-    edge_damping: float
-    diagonal_damping: float
-
-
-#: rigid voxels' edges and diagonals are fixed distances, not springs: they add no stiffness
-RIGID_TABLE = SpringTable(0.0, 0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -55,19 +51,18 @@ class Mesh:
     spring_ends: np.ndarray  # (n_springs, 2) point indices
     spring_kind: np.ndarray  # (n_springs,) EDGE or DIAGONAL
     spring_base: np.ndarray  # (n_springs,) rest length with every actuator at ratio 1
-    stiffness: np.ndarray  # (n_springs,) summed over the voxels sharing the spring
-    damping: np.ndarray  # (n_springs,)
-    spring_rigid: np.ndarray  # (n_springs,) bool: a rigid voxel owns it, so it is a fixed distance
+    stiffness: np.ndarray  # (n_springs,)
+    rigid_edge: np.ndarray  # (n_springs,) bool: an edge of a rigid voxel, held near its length
     voxel_corners: np.ndarray  # (n_voxels, 4) point indices TL, TR, BR, BL: a loop around the voxel
     voxel_codes: np.ndarray  # (n_voxels,) codes 1-4
+    voxel_cells: np.ndarray  # (n_voxels, 2) (row, col) in the body array
+    surface: np.ndarray  # (n_voxels,) bool: the voxel has an edge without a neighbour
     actuator_cells: np.ndarray  # (n_actuators, 3) (row, col, code), in action order
-    # actuator drive: contribution j adds drive_k[j] * length(ratio[drive_act[j]]) to spring drive_spring[j]
-    drive_spring: np.ndarray
+    driven: np.ndarray  # indices of the springs some actuator drives
+    # actuator drive: actuator drive_act[j] pulls on spring driven[drive_slot[j]]
+    drive_slot: np.ndarray
     drive_act: np.ndarray
-    drive_kind: np.ndarray
-    drive_k: np.ndarray
-    fixed_weighted: np.ndarray  # (n_springs,) sum of k * L over the contributions no actuator drives
-    driven: np.ndarray  # indices of the springs (not rigid) whose rest length depends on an actuator
+    drive_count: np.ndarray  # (len(driven),) how many actuators drive each driven spring
     voxel_size: float
 
     @property
@@ -81,9 +76,8 @@ class Mesh:
     def rest_lengths(self, ratios: np.ndarray) -> np.ndarray:
         """Rest length of each spring in ``driven`` for actuator length ratios ``ratios``."""
         r = np.asarray(ratios, dtype=float)[self.drive_act]
-        length = np.where(self.drive_kind == EDGE, r, np.sqrt(r * r + 1.0)) * self.voxel_size
-        weighted = self.fixed_weighted + np.bincount(self.drive_spring, weights=self.drive_k * length, minlength=len(self.stiffness))
-        return weighted[self.driven] / self.stiffness[self.driven]
+        mean = np.bincount(self.drive_slot, weights=r, minlength=len(self.driven)) / self.drive_count
+        return mean * self.voxel_size
 
 
 def _corner_groups(occupied: np.ndarray, i: int, j: int) -> list[list[tuple[int, int]]]:
@@ -121,8 +115,7 @@ def build_mesh(
 ) -> Mesh:
     """Mesh of ``voxels`` (codes, row 0 on top) whose grid's lower-left corner sits at ``origin``.
 
-    ``tables`` gives the spring constants of soft and actuator voxels; rigid voxels make every
-    spring they touch a fixed distance (see :class:`Mesh`).
+    ``tables`` gives the spring constants of every voxel type (codes 1-4).
     """
     grid = np.asarray(voxels)
     h, w = grid.shape
@@ -145,79 +138,85 @@ def build_mesh(
             for vr, vc in group:
                 corner_point[(i, j, vr, vc)] = index
 
-    # -- springs: per-voxel contributions, merged by point pair -------------------------------
+    # -- springs ------------------------------------------------------------------------------
     spring_index: dict[tuple[int, int], int] = {}
     ends: list[tuple[int, int]] = []
     kinds: list[int] = []
     base: list[float] = []
     stiffness: list[float] = []
-    damping: list[float] = []
-    fixed_weighted: list[float] = []
-    rigid: list[bool] = []
-    drive: list[tuple[int, int, int, float]] = []  # (spring, actuator, kind, k)
+    rigid_edge: list[bool] = []
+    drive: dict[int, list[int]] = {}  # spring -> actuators driving it
     corners: list[tuple[int, int, int, int]] = []
     codes: list[int] = []
+    surface: list[bool] = []
     actuators: list[tuple[int, int, int]] = []
     diagonal = math.sqrt(2.0) * voxel_size
 
-    def contribute(a: int, b: int, kind: int, length: float, k: float, c: float, actuator: int | None, is_rigid: bool) -> None:
+    def edge(a: int, b: int, code: int, actuator: int | None) -> None:
         key = (min(a, b), max(a, b))
         s = spring_index.get(key)
         if s is None:
             s = spring_index[key] = len(ends)
             ends.append(key)
-            kinds.append(kind)
-            base.append(length)
-            stiffness.append(0.0)
-            damping.append(0.0)
-            fixed_weighted.append(0.0)
-            rigid.append(False)
-        rigid[s] = rigid[s] or is_rigid
-        stiffness[s] += k
-        damping[s] += c
-        if actuator is None:
-            fixed_weighted[s] += k * length
-        else:
-            drive.append((s, actuator, kind, k))
+            kinds.append(EDGE)
+            base.append(voxel_size)
+            stiffness.append(tables[RIGID].edge_stiffness)
+            rigid_edge.append(False)
+        if code == RIGID:
+            rigid_edge[s] = True
+        else:  # soft and actuator voxels overwrite the constant, the last one in row-major order wins
+            stiffness[s] = tables[code].edge_stiffness
+        if actuator is not None:
+            drive.setdefault(s, []).append(actuator)
+
+    def diagonal_spring(a: int, b: int, code: int) -> None:
+        spring_index[(min(a, b), max(a, b))] = len(ends)
+        ends.append((min(a, b), max(a, b)))
+        kinds.append(DIAGONAL)
+        base.append(diagonal)
+        stiffness.append(tables[code].diagonal_stiffness)
+        rigid_edge.append(False)
 
     for r, c in voxel_cells:
         code = int(grid[r, c])
         tl, tr, bl, br = (corner_point[(r + di, c + dj, r, c)] for di, dj in corner_offsets)
         corners.append((tl, tr, br, bl))
         codes.append(code)
-        t = RIGID_TABLE if code == RIGID else tables[code]
+        neighbours = [(r - 1, c), (r + 1, c), (r, c - 1), (r, c + 1)]
+        surface.append(not all(0 <= i < h and 0 <= j < w and occupied[i, j] for i, j in neighbours))
         act = None
         if code in (H_ACT, V_ACT):
             act = len(actuators)
             actuators.append((r, c, code))
         along_x = act if code == H_ACT else None  # horizontal actuators drive the edges along x
         along_y = act if code == V_ACT else None
-        contribute(tl, tr, EDGE, voxel_size, t.edge_stiffness, t.edge_damping, along_x, code == RIGID)
-        contribute(bl, br, EDGE, voxel_size, t.edge_stiffness, t.edge_damping, along_x, code == RIGID)
-        contribute(tl, bl, EDGE, voxel_size, t.edge_stiffness, t.edge_damping, along_y, code == RIGID)
-        contribute(tr, br, EDGE, voxel_size, t.edge_stiffness, t.edge_damping, along_y, code == RIGID)
-        contribute(tl, br, DIAGONAL, diagonal, t.diagonal_stiffness, t.diagonal_damping, act, code == RIGID)
-        contribute(tr, bl, DIAGONAL, diagonal, t.diagonal_stiffness, t.diagonal_damping, act, code == RIGID)
+        edge(tl, tr, code, along_x)
+        edge(bl, br, code, along_x)
+        edge(tl, bl, code, along_y)
+        edge(tr, br, code, along_y)
+    for (r, c), (tl, tr, br, bl), code in zip(voxel_cells, corners, codes):  # diagonals after all edges, as Evolution Gym
+        diagonal_spring(tr, bl, code)
+        diagonal_spring(tl, br, code)
 
-    drive_arr = np.array(drive, dtype=float).reshape(-1, 4)
-    driven = np.unique(drive_arr[:, 0].astype(np.intp))
+    # a rigid voxel holds its edges within a few percent: an actuator beside it cannot drive that edge
+    driven = np.array(sorted(s for s in drive if not rigid_edge[s]), dtype=np.intp)
+    pairs = [(slot, a) for slot, s in enumerate(driven.tolist()) for a in drive[s]]
+    pair_arr = np.array(pairs, dtype=np.intp).reshape(-1, 2)
     return Mesh(
         points=np.array(points, dtype=float),
         spring_ends=np.array(ends, dtype=np.intp).reshape(-1, 2),
         spring_kind=np.array(kinds, dtype=np.int8),
         spring_base=np.array(base, dtype=float),
         stiffness=np.array(stiffness, dtype=float),
-        damping=np.array(damping, dtype=float),
-        spring_rigid=np.array(rigid, dtype=bool),
+        rigid_edge=np.array(rigid_edge, dtype=bool),
         voxel_corners=np.array(corners, dtype=np.intp).reshape(-1, 4),
         voxel_codes=np.array(codes, dtype=np.int8),
+        voxel_cells=np.array(voxel_cells, dtype=np.intp).reshape(-1, 2),
+        surface=np.array(surface, dtype=bool),
         actuator_cells=np.array(actuators, dtype=np.intp).reshape(-1, 3),
-        drive_spring=drive_arr[:, 0].astype(np.intp),
-        drive_act=drive_arr[:, 1].astype(np.intp),
-        drive_kind=drive_arr[:, 2].astype(np.int8),
-        drive_k=drive_arr[:, 3],
-        fixed_weighted=np.array(fixed_weighted, dtype=float),
-        driven=driven[~np.array(rigid, dtype=bool)[driven]],
+        driven=driven,
+        drive_slot=pair_arr[:, 0],
+        drive_act=pair_arr[:, 1],
+        drive_count=np.array([len(drive[s]) for s in driven.tolist()], dtype=float),
         voxel_size=float(voxel_size),
     )
-

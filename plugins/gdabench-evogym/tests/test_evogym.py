@@ -79,3 +79,25 @@ def test_ppo_trains_on_evolution_gym(tmp_path):
     assert math.isfinite(first.reward) and (tmp_path / "policy").is_dir()
     again = EvogymTask().evaluate(body, seed=1, controller=ppo, workdir=tmp_path / "policy")
     assert again.reward == first.reward and again.info.get("replayed") == 1
+
+
+def test_walker_fidelity_benchmark_compares_both_simulators(tmp_path):
+    """A slice of benchmarks/walker_fidelity.py (the full run takes hours on a shared machine)."""
+    root = os.path.join(os.path.dirname(__file__), "..", "..", "..")
+    script = os.path.join(root, "benchmarks", "walker_fidelity.py")
+    cache = tmp_path / "evogym.jsonl"
+    args = [sys.executable, script, "--random-bodies", "2", "--steps", "60", "--gaits", "wave20,random", "--evogym-cache", str(cache)]
+    out = subprocess.run([*args, "--json", str(tmp_path / "rows.json")], capture_output=True, text=True, check=True).stdout
+    assert "calibration: 13 bodies, 26 episodes" in out and "held-out: 13 bodies, 26 episodes" in out
+    assert "return Spearman" in out and "ratio" in out  # both simulators timed side by side
+    rows = json.loads((tmp_path / "rows.json").read_text())
+    assert len(rows) == 52 and all(len(r["evogym"]["trace"]) == 7 for r in rows)
+    # the same body set again, Evolution Gym's episodes from the cache: identical figures
+    again = subprocess.run(args, capture_output=True, text=True, check=True).stdout
+    def tables(text: str) -> list[str]:  # Evolution Gym's C++ code may print its version first
+        lines = text.splitlines()
+        return lines[next(i for i, line in enumerate(lines) if line.startswith("calibration")) : -1]
+
+    assert tables(again) == tables(out) and "from the cache" in again
+    bad = subprocess.run([*args, "--gaits", "moonwalk"], capture_output=True, text=True)
+    assert bad.returncode == 2 and bad.stderr.startswith("error: unknown gait")
