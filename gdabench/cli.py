@@ -132,9 +132,10 @@ def info(
             table = Table(show_edge=False)
             for column in ("parameter", "type", "default", "description"):
                 table.add_column(column)
-            for row in describe(item.spec):
+            rows = describe(item.spec)
+            for row in rows:
                 table.add_row(*map(escape, row))
-            console.print(table)
+            console.print(table if rows else "no parameters")
 
 
 # -- run / compare --------------------------------------------------------------------------------

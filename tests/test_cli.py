@@ -29,6 +29,31 @@ def test_list_shows_builtins_with_package():
     assert bad.exit_code == 2 and "unknown kind 'robots'" in bad.stderr
 
 
+def test_info_shows_parameters_with_types_and_descriptions():
+    result = invoke("info", "ga")
+    assert result.exit_code == 0, result.stderr
+    rows = {line.split("│")[0].strip(): line for line in result.stdout.splitlines() if "│" in line}
+    assert {"survivors", "mutation_rate", "attempts"} <= set(rows)
+    assert "int" in rows["survivors"] and "float" in rows["mutation_rate"]
+    assert invoke("info", "walker").stdout.rstrip().endswith("no parameters")
+    bad = invoke("info", "gdaa")
+    assert bad.exit_code == 2 and "gda" in bad.stderr
+
+
+def test_every_builtin_parameter_has_a_description():
+    from gdabench.params import describe
+    from gdabench.plugins import registry
+
+    reg = registry()
+    for kind in ("designer", "environment", "controller"):
+        for name in reg.names(kind):
+            item = reg.get(kind, name)
+            if item.distribution != "gdabench":
+                continue
+            undocumented = [row[0] for row in describe(item.spec) if not row[3]]
+            assert not undocumented, f"{kind} {name}: no Parameters: line for {undocumented}"
+
+
 def test_compare_writes_run_and_prints_summary(tmp_path):
     out = tmp_path / "run"
     result = invoke("compare", "--designers", "ga,random", "--env", "simple", "--seeds", "0,1", "--budget", "100", "--out", str(out), "-q")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pandas as pd
 import pytest
 from typer.testing import CliRunner
@@ -147,3 +149,28 @@ def test_the_report_of_a_suite_has_a_page_per_environment_and_one_across_them(tm
     assert ranks["mean rank"].tolist() == pytest.approx(ranks[["simple", "nk[k=4]"]].mean(axis=1).tolist())
     html = (report / "report.html").read_text()
     assert "Performance on simple" in html and "Performance on nk[k=4]" in html and "Across environments" in html
+
+
+@pytest.mark.parametrize("path", sorted((Path(__file__).parent.parent / "experiments").glob("*.toml")), ids=lambda p: p.name)
+def test_every_committed_experiment_resolves_into_a_plan(path):
+    from gdabench.cli import RunOptions
+    from gdabench.experiment_file import load
+    from gdabench.plan import Plan
+    from gdabench.plugins import registry
+
+    experiment = RunOptions().experiment("", load(path))
+    plan = Plan.resolve(experiment, registry())
+    assert len(plan.trials) == len(experiment.designers) * len(experiment.envs) * len(experiment.seeds) > 0
+
+
+def test_the_walker_experiment_is_the_thesis_co_design_and_its_budget_per_body_can_be_overridden():
+    from gdabench.cli import RunOptions
+    from gdabench.experiment_file import load
+
+    path = Path(__file__).parent.parent / "experiments" / "walker.toml"
+    faithful = RunOptions().experiment("", load(path))
+    assert [d.name for d in faithful.designers] == ["ga", "cppn", "gda"] and [e.name for e in faithful.envs] == ["walker"]
+    assert faithful.controller.name == "ppo" and faithful.controller.params["timesteps"] == 1_000_000
+    assert (faithful.population, faithful.budget) == (25, 125)
+    quick = RunOptions(controller_param=["timesteps=50000"], explicit=frozenset({"controller_param"})).experiment("", load(path))
+    assert quick.controller.params["timesteps"] == 50000

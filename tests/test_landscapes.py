@@ -231,7 +231,7 @@ def test_nk_k0_is_smooth_and_larger_k_rugged():
     rng = np.random.default_rng(1)
     for table_seed in range(3):
         smooth = make_env("nk", k=0, table_seed=table_seed)
-        assert smooth.upper_bound == smooth.optimum  # its unconstrained best is valid (see README)
+        assert smooth.upper_bound == smooth.optimum  # its unconstrained best is valid (docs/environments/nk.md)
         assert all(greedy_ascent(smooth, random_body(rng)) == smooth.optimum for _ in range(5))
     rugged = make_env("nk", k=3, table_seed=0)
     peaks = {round(greedy_ascent(rugged, random_body(rng)), 9) for _ in range(8)}

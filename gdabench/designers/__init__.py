@@ -32,7 +32,7 @@ def gdabench_designers() -> list[DesignerSpec]:
         DesignerSpec(
             name="gda-fast",
             factory="gdabench.designers.gda:GenerationalDiffusion",
-            description="GDA with the best measured improvements (see README): a reward model picks from a pool of DDIM samples",
+            description="GDA with the best measured improvements (docs/designers/gda.md): a reward model picks from a pool of DDIM samples",
             defaults={"epochs": 10, "sampler": "ddim", "sample_steps": 50, "pool": 1000, "max_samples": 2000},
         ),
     ]

@@ -21,7 +21,7 @@ Departures from the author's code, all deliberate:
   Samples are independent and taken in order, so the accepted bodies have exactly the
   distribution of the author's fixed passes of 50; only the work changes.
 
-Options beyond the thesis (each measured against the faithful setting in the README):
+Options beyond the thesis (each measured against the faithful setting in docs/benchmarks/gda.md):
 ``target_mse`` (train until the epoch's mean loss reaches it), ``schedule='cosine'``,
 ``sampler='ddim'`` with ``sample_steps``, ``temperature`` (noise scale while sampling),
 ``warm_start`` (continue from the previous generation's weights), ``pool`` (draw more new
@@ -79,7 +79,34 @@ class Survivor:
 
 
 class GenerationalDiffusion(Designer):
-    """GDA with the thesis's defaults; see the module docstring for every option."""
+    """GDA with the thesis's defaults; the module docstring says which options depart from it.
+
+    Parameters:
+        survivors: bodies kept each generation, and the training set of the next model
+        epochs: training epochs per generation (the most, with target_mse)
+        dataset_size: items per epoch: the survivors repeated to this size
+        batch_size: training batch (None: the thesis's 5)
+        lr: AdamW learning rate
+        steps: diffusion timesteps T
+        beta_start: first variance of the noise schedule
+        beta_end: last variance of the noise schedule
+        schedule: noise schedule, linear (thesis) or cosine
+        sampler: ddpm (thesis, T denoising steps) or ddim (sample_steps steps)
+        sample_steps: denoising steps of the ddim sampler
+        sample_batch: samples per denoising pass (None: adapts to the acceptance rate)
+        temperature: scale of the noise added while sampling
+        pool: draw this many new bodies and propose those a ridge regression on rewards rates best
+        max_samples: draws per generation before the rest is filled with random bodies
+        target_mse: stop training at the first epoch whose mean loss is at most this
+        warm_start: train from the previous generation's weights instead of fresh ones
+        published_reencoding: re-encode survivors in place as the author's code does (reproduces the thesis)
+        prior: a run directory whose best bodies train generation 0's model
+        prior_top: how many of the prior run's best bodies
+        device: cpu, cuda, cuda:N or auto
+        threads: torch threads (None: leave torch's setting)
+        compile: torch.compile training and sampling: true, false or auto (long runs on the CPU)
+        speculate: train the next model ahead on a spare core: true, false or auto
+    """
 
     def __init__(
         self,
