@@ -158,6 +158,17 @@ def test_dead_worker_is_replaced_and_others_keep_their_results(reg):
     assert [o.reward for o in again] == [6.0, 8.0]
 
 
+def test_a_trial_whose_every_evaluation_failed_says_so_and_exits_1(tmp_path, faulty_site):
+    args = ["compare", "-d", "random", "--env", "faulty[raise_always=true],simple", "--budget", "50", "--jobs", "1", "-q", "--no-report"]
+    result = cli(*args, "--out", str(tmp_path / "run"), site=faulty_site)
+    assert result.returncode == 1, result.stderr
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert lines[-1].startswith("error: every evaluation failed in 1 trial(s), e.g. random on faulty"), result.stderr
+    assert any("50 error" in line and "simulator exploded" in line for line in lines[:-1]), result.stderr
+    run = RunDirectory.open(tmp_path / "run")
+    assert run.meta["status"] == "complete" and len(run.load_evaluations()) == 100  # the simple trial is whole
+
+
 # -- designer failure, kill and resume ----------------------------------------------------------
 def test_designer_failure_is_one_line_and_resumable(tmp_path, faulty_site):
     flag = tmp_path / "fail-now"
