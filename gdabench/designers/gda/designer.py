@@ -37,7 +37,6 @@ unchanged bit for bit.
 from __future__ import annotations
 
 import math
-import os
 import time
 import warnings
 from dataclasses import dataclass, replace
@@ -50,6 +49,7 @@ import torch
 from ...body import Body, as_body, invalid_reason, random_body
 from ...designer import Designer, top_k
 from ...errors import ConfigError, GdabenchError
+from ...execution import cores
 from .encoding import decode, encode, published_reencoding
 from .runtime import check_threads, resolve_device, torch_threads
 from .sampling import SAMPLERS, ancestral_sample, ddim_sample
@@ -281,10 +281,11 @@ class GenerationalDiffusion(Designer):
         return self._long_run() if self.compile == "auto" else bool(self.compile)
 
     def _speculates(self) -> bool:
+        """Whether to train ahead now: always or never when told; with 'auto', once the run has a
+        spare core for this trial (it keeps it until the trial ends) and the run is long enough."""
         if self.speculate != "auto":
             return bool(self.speculate)
-        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-        return cores >= 2 and not self.warm_start and not self.published_reencoding and self._long_run()
+        return not self.warm_start and not self.published_reencoding and self._long_run() and cores.borrow()
 
     @property
     def trainer(self) -> Trainer:
