@@ -68,7 +68,8 @@ class RefUNet(nn.Module):
         x2 = self.down(self.down_conv(x1))
         x2 = self.sa1(x2 + self.down_emb(e)[:, :, None, None])
         x2 = self.bot(x2)
-        x = F.interpolate(x2, size=(5, 5), mode="bilinear", align_corners=True)
+        # the author's code upsamples to a fixed (5, 5); back to the input's size is the same at 5x5
+        x = F.interpolate(x2, size=x1.shape[-2:], mode="bilinear", align_corners=True)
         x = self.up(torch.cat([x1, x], dim=1)) + self.up_emb(e)[:, :, None, None]
         return self.outc(self.sa2(x))
 

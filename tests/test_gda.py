@@ -67,24 +67,29 @@ def test_model_has_the_thesis_parameter_count():
     assert parameter_count(UNet()) == 90_833
 
 
+SHAPES = [(5, 5), (8, 8), (3, 3), (3, 7), (6, 4), (12, 12)]  # the thesis's, larger, the smallest, non-square
+
+
 @pytest.mark.parametrize("grad", [True, False])
-def test_model_computes_the_thesis_architecture(grad):
+@pytest.mark.parametrize("shape", SHAPES, ids=lambda s: f"{s[0]}x{s[1]}")
+def test_model_computes_the_thesis_architecture(grad, shape):
     torch.manual_seed(0)
     ours = UNet()
     ref = RefUNet().load_from(ours)
     assert parameter_count(ref) == 90_833
-    x, t = torch.randn(7, 1, 5, 5), torch.randint(1, 500, (7,))
+    x, t = torch.randn(7, 1, *shape), torch.randint(1, 500, (7,))
     with torch.set_grad_enabled(grad):
         assert torch.allclose(ours(x, t), ref(x, t), atol=1e-5)
 
 
 @pytest.mark.parametrize("batch", [5, 4])
-def test_hand_derived_training_step_matches_autograd(batch):
+@pytest.mark.parametrize("shape", SHAPES, ids=lambda s: f"{s[0]}x{s[1]}")
+def test_hand_derived_training_step_matches_autograd(batch, shape):
     torch.manual_seed(1)
     model = UNet()
-    net = FastUNet(model, (5, 5), torch.device("cpu"))
+    net = FastUNet(model, shape, torch.device("cpu"))
     net.params.load()
-    x, noise = torch.randn(batch, 1, 5, 5), torch.randn(batch, 1, 5, 5)
+    x, noise = torch.randn(batch, 1, *shape), torch.randn(batch, 1, *shape)
     feats = model.time_features(torch.randint(1, 500, (batch,)))
     expected = torch.nn.functional.mse_loss(model.forward_features(x, feats), noise)
     grads = torch.autograd.grad(expected, list(model.parameters()))
@@ -95,10 +100,19 @@ def test_hand_derived_training_step_matches_autograd(batch):
         ours = module_layout(net.params.of(p)[1], kind, p.shape)
         assert torch.allclose(ours, g, rtol=1e-4, atol=1e-5 * g.abs().max().item())
     copy = UNet()
-    other = FastUNet(copy, (5, 5), torch.device("cpu"))
+    other = FastUNet(copy, shape, torch.device("cpu"))
     other.params.flat.copy_(net.params.flat)
     other.params.store()  # the training layout converts back to the module exactly
     assert all(torch.equal(a, b) for a, b in zip(copy.parameters(), model.parameters()))
+
+
+@pytest.mark.parametrize("shape", [(8, 8), (3, 7)], ids=lambda s: f"{s[0]}x{s[1]}")
+def test_gda_designs_larger_and_non_square_bodies(shape):
+    designer = make_designer("gda", seed=0, shape=shape, population=10, budget=1000, **FAST)
+    bodies = [b for generation in run(designer, 3) for b in generation]
+    assert all(b.shape == shape and b.is_valid() for b in bodies)
+    assert len({b.hash for b in bodies}) == len(bodies) == 30
+    assert [row["source"] for row in designer.proposal_info()].count("sampled") >= 5  # drawn from the model
 
 
 def test_a_training_step_is_the_textbook_step_on_the_module():
