@@ -10,6 +10,7 @@ from dataclasses import replace
 
 import gymnasium
 import numpy as np
+import pandas as pd
 import pytest
 from gymnasium.utils.env_checker import check_env
 from PIL import Image
@@ -526,6 +527,24 @@ def test_compare_runs_the_walker_with_open_loop(tmp_path):
     assert len(ok) == 4 and ok["reward"].notna().all()
     assert set(ok["env_steps"]) == {500}
     assert set(rows["env_version"]) == {"gdabench/Walker-v1"}  # old runs stay interpretable
+
+
+def test_jobs_through_the_command_line_give_the_same_walker_table(tmp_path):
+    from typer.testing import CliRunner
+
+    from gdabench.cli import app
+    from processes import TIMING
+
+    args = ["compare", "-d", "random,ga", "--env", "walker", "--controller", "open-loop", "-C", "trials=1",
+            "--shape", "3x3", "--population", "2", "--budget", "4", "--seeds", "0,1", "-q", "--no-report"]
+    tables = []
+    for jobs in ("1", "2"):
+        result = CliRunner().invoke(app, [*args, "--jobs", jobs, "--out", str(tmp_path / jobs)])
+        assert result.exit_code == 0, result.output
+        rows = gdabench.RunDirectory.open(tmp_path / jobs).load_evaluations()
+        tables.append(rows.drop(columns=TIMING))
+    assert len(tables[0]) == 16 and tables[0]["reward"].notna().all()
+    pd.testing.assert_frame_equal(tables[0], tables[1])
 
 
 def test_physics_defaults_are_one_frozen_dataclass():
