@@ -498,7 +498,7 @@ def run_scheduled(designer, generations: int) -> tuple[list[list[str]], list[boo
         proposed = designer.ask()
         bodies.append([b.hash for b in proposed])
         ahead.append(bool(designer.proposal_info()[0].get("trained_ahead")))
-        holds_next.append(designer._ahead is not None)
+        holds_next.append(designer._speculation is not None and designer._speculation.holds_next)
         designer.tell(proposed, [SCHEDULED_REWARDS.get(generation, reward(b)) for b in proposed])
     return bodies, ahead, holds_next
 

@@ -49,12 +49,11 @@ import torch
 from ...body import Body, as_body, invalid_reason, random_body
 from ...designer import Designer, top_k
 from ...errors import ConfigError, GdabenchError
-from ...execution import cores
 from .encoding import decode, encode, published_reencoding
 from .runtime import check_threads, resolve_device, torch_threads
 from .sampling import SAMPLERS, ancestral_sample, ddim_sample
 from .schedule import make_schedule
-from .speculation import WorkerConfig, WorkerError, discard_worker, training_worker
+from .speculation import Following, Speculation, WorkerConfig, WorkerError, wanted
 from .surrogate import ridge_predictor
 from .training import Trainer, TrainJob, TrainResult
 
@@ -196,8 +195,7 @@ class GenerationalDiffusion(Designer):
         self._weights: torch.Tensor | None = None  # previous model's weights, kept only to warm-start
         self._trainer: Trainer | None = None
         self._trained_ahead = False
-        #: the next generation's model, trained ahead in this process: (job, weights, stream state, result)
-        self._ahead: tuple[TrainJob, np.ndarray, np.ndarray, TrainResult] | None = None
+        self._speculation: Speculation | None = None  # while training ahead (see :mod:`.speculation`)
 
     # -- ask/tell ------------------------------------------------------------------------------
     def ask(self) -> list[Body]:
@@ -215,8 +213,11 @@ class GenerationalDiffusion(Designer):
         else:
             generator = self._torch_generator()
             trained = self._train(training_set, generator)
-            if self.survivors:  # not after a prior: survivors unknown yet
-                self._train_ahead(training_set)
+            if self._speculates():
+                try:
+                    self._speculation.look_ahead(self._following(training_set))
+                except WorkerError as exc:
+                    self._stop_speculating(exc)
             start = time.perf_counter()
             if self.pool is None:
                 sampled, drawn = self._sample_new(wanted, generator)
@@ -281,11 +282,12 @@ class GenerationalDiffusion(Designer):
         return self._long_run() if self.compile == "auto" else bool(self.compile)
 
     def _speculates(self) -> bool:
-        """Whether to train ahead now: always or never when told; with 'auto', once the run has a
-        spare core for this trial (it keeps it until the trial ends) and the run is long enough."""
-        if self.speculate != "auto":
-            return bool(self.speculate)
-        return not self.warm_start and not self.published_reencoding and self._long_run() and cores.borrow()
+        """Whether models are trained ahead from now on (then ``_speculation`` is set)."""
+        if self._speculation is None:
+            eligible = not self.warm_start and not self.published_reencoding and self._long_run()
+            if wanted(self.speculate, eligible):
+                self._speculation = Speculation(self._worker_config())
+        return self._speculation is not None
 
     @property
     def trainer(self) -> Trainer:
@@ -305,19 +307,10 @@ class GenerationalDiffusion(Designer):
         return TrainJob.make(data, self._torch_seed(generation), epochs=self.epochs, batch_size=self.batch_size,
                              dataset_size=self.dataset_size, target_loss=self.target_mse)
 
-    def _train_ahead(self, bodies: list[np.ndarray]) -> None:
-        """Start the training process on the next generation's model for these survivors, or on
-        the one after if this process trained that already (see :mod:`.speculation`)."""
-        if self._speculates():
-            job = self._job(bodies, self.generation + 1)
-            ahead = 1
-            if self._ahead is not None and self._ahead[0] == job:
-                job, ahead = self._job(bodies, self.generation + 2), 2
-            if self._asks_again(ahead):
-                try:
-                    training_worker(self._worker_config()).start(job)
-                except WorkerError as exc:
-                    self._stop_speculating(exc)
+    def _following(self, bodies: list[np.ndarray]) -> Following:
+        """The training job ``k`` generations on if the survivors stay ``bodies``; None if the run
+        will not ask for it (or there are no survivors yet, after a prior)."""
+        return lambda k: self._job(bodies, self.generation + k) if self.survivors and self._asks_again(k) else None
 
     def _asks_again(self, generations: int) -> bool:
         """Whether the run will ask for generation ``self.generation + generations``."""
@@ -327,16 +320,18 @@ class GenerationalDiffusion(Designer):
     def _stop_speculating(self, exc: WorkerError) -> None:
         warnings.warn(f"gda: {exc}; training in this process from now on (same results, no overlap)", RuntimeWarning, stacklevel=3)
         self.speculate = False
-        discard_worker(self._worker_config())
+        if self._speculation is not None:
+            self._speculation.close()
+            self._speculation = None
 
     def _train(self, bodies: list[np.ndarray], generator: torch.Generator) -> TrainResult:
-        """A fresh model trained on ``bodies``, in the worker process when speculating; ``generator``
+        """A fresh model trained on ``bodies`` (ahead, or elsewhere, when speculating); ``generator``
         ends where training leaves this generation's stream, ready for sampling."""
         job = self._job(bodies, self.generation)
         self._trained_ahead = False
         if self._speculates():
             try:
-                weights, state, result, self._trained_ahead = self._train_speculating(job, bodies)
+                weights, state, result, self._trained_ahead = self._speculation.train(job, self.trainer, self._following(bodies))
             except WorkerError as exc:
                 self._stop_speculating(exc)
             else:
@@ -348,25 +343,6 @@ class GenerationalDiffusion(Designer):
         if self.warm_start:
             self._weights = self.trainer.flat.detach().to("cpu", copy=True)
         return result
-
-    def _train_speculating(self, job: TrainJob, bodies: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, TrainResult, bool]:
-        """``job`` trained ahead by this process or the training process, or else by the training
-        process now, while this process, which would only wait, trains the next generation's
-        model on the same survivors ahead."""
-        mine, self._ahead = self._ahead, None
-        if mine is not None and mine[0] == job:
-            return (*mine[1:], True)
-        worker = training_worker(self._worker_config())
-        ahead = worker.has(job)
-        if not ahead and self.survivors and self._asks_again(1):
-            worker.start(job)
-            if self.trainer.warm:
-                following = self._job(bodies, self.generation + 1)
-                self._ahead = (following, *following.train(self.trainer))
-            else:  # the first time: compile after the worker, from its cache, while it trains
-                worker.wait_warm()
-                job.warm_up(self.trainer)
-        return (*worker.train(job), ahead)
 
     def _draw(self, n: int, generator: torch.Generator) -> np.ndarray:
         """``n`` decoded samples (n, H, W) from the current model."""
@@ -425,7 +401,7 @@ class GenerationalDiffusion(Designer):
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
         state["_trainer"] = None  # rebuilt on demand; every generation starts from a fresh (or saved) model
-        state["_ahead"] = None  # trained again if needed (the same numbers)
+        state["_speculation"] = None  # models trained ahead are trained again if needed (the same numbers)
         return state
 
 

@@ -16,7 +16,9 @@ main process, which would only wait for it, trains the model after it on the sam
 keeps its survivors, and leaves the worker free to go two generations ahead meanwhile.
 
 Every model comes from the same ``TrainJob.run`` with its generation's stream, so the results
-are the same with or without speculation (tested); only the wall time changes.
+are the same with or without speculation (tested); only the wall time changes.  The designer
+decides *what* each generation trains on (a :class:`TrainJob`); :class:`Speculation` decides
+where and when it is trained, and :func:`wanted` whether to speculate at all.
 """
 
 from __future__ import annotations
@@ -28,12 +30,13 @@ import signal
 import threading
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import torch
 
 from ...errors import GdabenchError
+from ...execution import cores
 from .schedule import make_schedule
 from .training import Trainer, TrainJob, TrainResult
 
@@ -43,6 +46,66 @@ POLL_SECONDS = 1.0
 
 class WorkerError(GdabenchError):
     """The training process failed or died; training can go on in the main process."""
+
+
+#: ``following(k)``: the job ``k`` generations on if the survivors stay, None if the run will not ask for it
+Following = Callable[[int], "TrainJob | None"]
+
+
+def wanted(setting: bool | str, eligible: bool) -> bool:
+    """Whether to train ahead now: as ``setting`` says, or with 'auto' for an ``eligible`` run
+    once it has a spare core for this trial (kept until the trial ends; see :mod:`...execution.cores`)."""
+    if setting != "auto":
+        return bool(setting)
+    return eligible and cores.borrow()
+
+
+class Speculation:
+    """One designer's models, trained ahead in the training process and in this one while it
+    would only wait; each is the model :meth:`TrainJob.train` gives here."""
+
+    def __init__(self, config: WorkerConfig):
+        self.config = config
+        #: the next generation's model, trained ahead in this process: (job, weights, stream state, result)
+        self._ahead: tuple[TrainJob, np.ndarray, np.ndarray, TrainResult] | None = None
+
+    @property
+    def holds_next(self) -> bool:
+        """Whether this process has trained a model ahead that no generation has used yet."""
+        return self._ahead is not None
+
+    def train(self, job: TrainJob, trainer: Trainer, following: Following) -> tuple[np.ndarray, np.ndarray, TrainResult, bool]:
+        """``job``'s weights (training layout), stream state and result, and whether it was
+        trained ahead.  Trained now by the training process if not, while ``trainer`` trains the
+        next generation's model on the same survivors (a guess that pays when they stay)."""
+        mine, self._ahead = self._ahead, None
+        if mine is not None and mine[0] == job:
+            return (*mine[1:], True)
+        worker = training_worker(self.config)
+        ahead = worker.has(job)
+        following_job = following(1)
+        if not ahead and following_job is not None:
+            worker.start(job)
+            if trainer.warm:
+                self._ahead = (following_job, *following_job.train(trainer))
+            else:  # the first time: compile after the worker, from its cache, while it trains
+                worker.wait_warm()
+                job.warm_up(trainer)
+        return (*worker.train(job), ahead)
+
+    def look_ahead(self, following: Following) -> None:
+        """Start the training process on the next generation's model, or on the one after if
+        this process trained the next one already."""
+        job = following(1)
+        if job is not None and self._ahead is not None and self._ahead[0] == job:
+            job = following(2)
+        if job is not None:
+            training_worker(self.config).start(job)
+
+    def close(self) -> None:
+        """Stop the training process (after it failed: the designer trains here from now on)."""
+        self._ahead = None
+        discard_worker(self.config)
 
 
 @dataclass(frozen=True)
