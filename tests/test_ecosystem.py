@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from gdabench.body import Body, random_body
+from gdabench.body import Body
 from gdabench.designers.ecosystem import RewardScale, descriptors
 from gdabench.envs.simple import SumOfVoxels
 from gdabench.errors import ConfigError
