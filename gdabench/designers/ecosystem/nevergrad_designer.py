@@ -1,8 +1,11 @@
 """nevergrad's optimizers as a designer: ``nevergrad[optimizer=DiscreteOnePlusOne]``.
 
-A body is nevergrad's discrete parametrization ``Choice([0, 1, 2, 3, 4], repetitions=H*W)``: one
-voxel code per cell, row-major.  The optimizer is built with the run's budget and
-``num_workers = population``, so it is asked for a whole generation before it is told.
+A body is nevergrad's discrete parametrization ``Choice([0, 1, 2, 3, 4], repetitions=H*W,
+deterministic=True)``: one voxel code per cell, row-major, each the arg-max of that cell's five
+weights.  (With nevergrad's default, ``deterministic=False``, every proposal draws all voxels from
+the softmax of the weights, which stay near uniform: the (1+1) optimizers then propose nearly
+random bodies and measured no better than random search.)  The optimizer is built with the run's
+budget and ``num_workers = population``, so it is asked for a whole generation before it is told.
 
 What nevergrad proposes is not always a body gdabench may evaluate, and its loss is told for
 everything it proposed:
@@ -64,7 +67,7 @@ class NevergradDesigner(Designer):
             )
         self.optimizer_name = optimizer
         self.max_tries = int(max_tries)
-        parametrization = ng.p.Choice(list(range(N_VOXEL_TYPES)), repetitions=int(np.prod(self.shape)))
+        parametrization = ng.p.Choice(list(range(N_VOXEL_TYPES)), repetitions=int(np.prod(self.shape)), deterministic=True)
         # every random choice nevergrad makes comes from the parametrization's random state
         parametrization.random_state = np.random.RandomState(self.seed_sequence.spawn(1)[0].generate_state(1)[0])
         self.optimizer = ng.optimizers.registry[optimizer](parametrization=parametrization, budget=self.budget, num_workers=self.population)
