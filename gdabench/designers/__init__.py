@@ -35,4 +35,25 @@ def gdabench_designers() -> list[DesignerSpec]:
             description="GDA with the best measured improvements (docs/designers/gda.md): a reward model picks from a pool of DDIM samples",
             defaults={"epochs": 10, "sampler": "ddim", "sample_steps": 50, "pool": 1000, "max_samples": 2000},
         ),
+        DesignerSpec(
+            name="nevergrad",
+            factory="gdabench.designers.ecosystem.nevergrad_designer:NevergradDesigner",
+            description="nevergrad's optimizers (NGOpt, DiscreteOnePlusOne, ...) on the voxel codes; extra: nevergrad",
+        ),
+        DesignerSpec(
+            name="bo",
+            factory="gdabench.designers.ecosystem.bayesopt:BayesianOptimization",
+            description="Bayesian optimisation on BoTorch: a GP on one-hot bodies Thompson-samples each generation from random and mutated bodies; extra: bo",
+        ),
+        DesignerSpec(
+            name="ribs-map-elites",
+            factory="gdabench.designers.ecosystem.pyribs_designer:RibsMapElites",
+            description="pyribs MAP-Elites (Gaussian emitters) on filled share x actuator share; extra: ribs",
+        ),
+        DesignerSpec(
+            name="ribs-cma-me",
+            factory="gdabench.designers.ecosystem.pyribs_designer:RibsMapElites",
+            description="pyribs CMA-ME (improvement-ranked CMA-ES emitters) on filled share x actuator share; extra: ribs",
+            defaults={"emitter": "cma"},
+        ),
     ]
