@@ -85,7 +85,7 @@ EXPECTED = {
     "raise_on": ("error", "RuntimeError: simulator exploded on "),
     "nan_on": ("error", "environment returned a non-finite reward (nan)"),
     "inf_on": ("error", "environment returned a non-finite reward (-inf)"),
-    "hang_on": ("timeout", "evaluation did not finish within the 2 s timeout"),
+    "hang_on": ("timeout", "evaluation did not finish within the "),
     "exit_on": ("error", "worker process died"),
     "kill_on": ("error", "worker process died"),
 }
@@ -131,8 +131,10 @@ def test_faults_are_recorded_and_the_run_goes_on(tmp_path, reg, faulty_experimen
 
 def test_faults_on_ray(tmp_path, reg, faulty_experiment, ray_cluster):
     exp, first = faulty_experiment
-    run = compare(exp, tmp_path / "run", reg=reg, execution=Execution("ray", workers=2, timeout=2))
-    assert run.meta["status"] == "complete" and run.meta["execution"]["timeout"] == 2
+    # Ray notices a dead actor in about a second, later on a loaded machine: a longer timeout keeps
+    # a death from being reported as a timeout
+    run = compare(exp, tmp_path / "run", reg=reg, execution=Execution("ray", workers=2, timeout=6))
+    assert run.meta["status"] == "complete" and run.meta["execution"]["timeout"] == 6
     check_faults(run.load_evaluations(), first)
 
 

@@ -536,14 +536,14 @@ def test_jobs_through_the_command_line_give_the_same_walker_table(tmp_path):
     from processes import TIMING
 
     args = ["compare", "-d", "random,ga", "--env", "walker", "--controller", "open-loop", "-C", "trials=1",
-            "--shape", "3x3", "--population", "2", "--budget", "4", "--seeds", "0,1", "-q", "--no-report"]
+            "--shape", "3x3", "--population", "3", "--budget", "6", "--seeds", "0,1", "-q", "--no-report"]
     tables = []
     for jobs in ("1", "2"):
         result = CliRunner().invoke(app, [*args, "--jobs", jobs, "--out", str(tmp_path / jobs)])
         assert result.exit_code == 0, result.output
         rows = gdabench.RunDirectory.open(tmp_path / jobs).load_evaluations()
         tables.append(rows.drop(columns=TIMING))
-    assert len(tables[0]) == 16 and tables[0]["reward"].notna().all()
+    assert len(tables[0]) == 24 and tables[0]["reward"].notna().all()
     pd.testing.assert_frame_equal(tables[0], tables[1])
 
 
