@@ -123,6 +123,7 @@ def seed_rows(out: Path, shape: tuple[int, int]) -> pd.DataFrame:
             "sample_s_per_gen": float(later["sample_seconds"].median()) if "sample_seconds" in later and later["sample_seconds"].notna().any() else math.nan,
             "wall_s": float(g["elapsed_seconds"].max()),
             "generations": int(len(gens)),
+            "finished": int(g["n_evals"].max()) >= int(run.meta["config"]["budget"]),
         })
     rows = rows.merge(pd.DataFrame(timing), on=["env", "designer", "seed"], how="left")
     rows["optimum"] = rows["env"].map(lambda e: best.get(e, (None, "unknown"))[0])
@@ -137,7 +138,7 @@ def seed_rows(out: Path, shape: tuple[int, int]) -> pd.DataFrame:
 
 
 def collect(root: Path, designers: Sequence[PluginChoice], shapes: Sequence[tuple[int, int]], envs: Sequence[PluginChoice]) -> pd.DataFrame:
-    """Per-seed rows of every existing run, environments in the order given."""
+    """Per-seed rows of every finished trial of the existing runs, environments in the order given."""
     frames = []
     for shape in shapes:
         for d in designers:
@@ -148,6 +149,10 @@ def collect(root: Path, designers: Sequence[PluginChoice], shapes: Sequence[tupl
     if not frames:
         return pd.DataFrame()
     rows = pd.concat(frames, ignore_index=True)
+    unfinished = rows[~rows["finished"].astype(bool)]
+    for _, r in unfinished.iterrows():  # a trial cut short would flatter nobody's gap: left out, said
+        print(f"note: {r['designer']} at {r['shape']} on {r['env']} seed {r['seed']} is unfinished; left out", file=sys.stderr)
+    rows = rows[rows["finished"].astype(bool)]
     return rows[rows["env"].isin([e.label for e in envs])]
 
 
