@@ -96,3 +96,13 @@ def test_comparisons_pair_by_seed_orient_a12_and_correct_per_designer(table):
     assert (same["p"] > 0.5).all() and (same["magnitude"] != "large").all()
     for _, family in tests.groupby("designer"):  # Holm within each designer's rows, not across designers
         assert list(family["p_holm"]) == pytest.approx(list(holm(family["p"].to_numpy())))
+
+
+def test_the_committed_experiment_follows_the_scripts_rule(table):
+    from gdabench.cli import RunOptions
+    from gdabench.experiment_file import load
+
+    experiment = RunOptions().experiment("", load(SCRIPT.parents[1] / "experiments" / "scaling.toml"))
+    assert (experiment.population, experiment.budget) == table.scaled(experiment.shape, 40, 1.0)
+    assert ",".join(e.label for e in experiment.envs) == table.DEFAULT_ENVS
+    assert table.shape_text(experiment.shape) in table.DEFAULT_SIZES.split(",")
