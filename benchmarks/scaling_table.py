@@ -4,8 +4,9 @@ The thesis (section 6.4) expects diffusion to scale better with the number of vo
 This script runs each designer on bodies of several shapes (5x5, 8x8 and 12x12 by default) over
 the environments ``target`` (its default target is the 5x5 walker scaled to the shape) and
 ``nk[k=4]`` (optimum computed exactly at these three shapes), with a budget and a population that
-grow with the voxel count: by default 40 evaluations and 1 body per voxel, so every run has 40
-generations (25 x 40 = 1,000 evaluations at 5x5, 64 x 40 = 2,560 at 8x8, 144 x 40 = 5,760 at 12x12).
+grow with the voxel count: by default 40 evaluations and 1 body per voxel, so a run has the same
+number of generations at every shape (40 for designers that evaluate a whole population each
+generation): 25 x 40 = 1,000 evaluations at 5x5, 64 x 40 = 2,560 at 8x8, 144 x 40 = 5,760 at 12x12.
 
 One suite run per (designer, shape), ``<root>/<HxW>/<designer>``, unless a complete one exists
 (designers, shapes and seeds can be added later; an interrupted run is resumed).  Then it prints,
@@ -183,14 +184,14 @@ def gap_table(rows: pd.DataFrame, envs: Sequence[PluginChoice], designers: Seque
 
 def gap_markdown(table: pd.DataFrame) -> str:
     lines = [
-        "| env | shape (voxels) | population x generations | optimum | designer | seeds | gap: median (IQR) | best reward (median) | wall s per seed (median) |",
+        "| env | shape (voxels) | population, budget | optimum | designer | seeds | gap: median (IQR) | best reward (median) | wall s per seed (median) |",
         "|---|---|---|---:|---|---:|---:|---:|---:|",
     ]
     for _, r in table.iterrows():
         bound = "" if r["optimum_kind"] == "optimum" else f" ({r['optimum_kind']})"
         note = "" if r["status"] == "complete" else " (incomplete)"
         lines.append(
-            f"| {r['env']} | {r['shape']} ({r['voxels']}) | {r['population']} x {r['budget'] // r['population']} | {r['optimum']:.2f}{bound} | "
+            f"| {r['env']} | {r['shape']} ({r['voxels']}) | {r['population']}, {r['budget']:,} | {r['optimum']:.2f}{bound} | "
             f"{r['designer']}{note} | {r['seeds']} | {fmt(r['gap_median'])} ({fmt(r['gap_q1'])}-{fmt(r['gap_q3'])}) | "
             f"{r['best_median']:.2f} | {r['wall_s_median']:.1f} |"
         )
@@ -269,18 +270,19 @@ def time_table(rows: pd.DataFrame, designers: Sequence[PluginChoice]) -> pd.Data
                 "train_s_per_gen": float(sel["train_s_per_gen"].median()),
                 "sample_s_per_gen": float(sel["sample_s_per_gen"].median()),
                 "wall_s": float(sel["wall_s"].median()),
+                "generations": float(sel["generations"].median()),
             })
     return pd.DataFrame(out).sort_values(["designer", "voxels"], kind="stable", key=lambda c: c.map({d.label: i for i, d in enumerate(designers)}) if c.name == "designer" else c)
 
 
 def time_markdown(table: pd.DataFrame) -> str:
     lines = [
-        "| designer | shape | trials | designer s per generation | gda: training s | gda: sampling s | wall s per trial |",
-        "|---|---|---:|---:|---:|---:|---:|",
+        "| designer | shape | trials | generations | designer s per generation | gda: training s | gda: sampling s | wall s per trial |",
+        "|---|---|---:|---:|---:|---:|---:|---:|",
     ]
     for _, r in table.iterrows():
         lines.append(
-            f"| {r['designer']} | {r['shape']} | {r['trials']} | {fmt(r['design_s_per_gen'], 3)} | {fmt(r['train_s_per_gen'], 2)} | "
+            f"| {r['designer']} | {r['shape']} | {r['trials']} | {r['generations']:.0f} | {fmt(r['design_s_per_gen'], 3)} | {fmt(r['train_s_per_gen'], 2)} | "
             f"{fmt(r['sample_s_per_gen'], 2)} | {r['wall_s']:.1f} |"
         )
     return "\n".join(lines)
