@@ -503,6 +503,15 @@ def run_scheduled(designer, generations: int) -> tuple[list[list[str]], list[boo
     return bodies, ahead, holds_next
 
 
+def test_rows_say_whether_the_run_was_compiled():
+    eager = gda(compile=False)
+    eager.tell(eager.ask(), [0.0] * 10)
+    eager.ask()
+    assert {row["compiled"] for row in eager.proposal_info()} == {False}
+    auto = make_designer("gda", seed=0, shape=(5, 5), population=25, budget=1000)  # the faithful run: compiled
+    assert auto._compiles() and auto.trainer.compile
+
+
 def test_training_ahead_gives_exactly_the_same_run():
     plain, plain_ahead, _ = run_scheduled(gda(seed=3, speculate=False), 6)
     fast, fast_ahead, holds_next = run_scheduled(gda(seed=3, speculate=True), 6)

@@ -232,6 +232,7 @@ class GenerationalDiffusion(Designer):
                 "train_loss": trained.loss,
                 "train_seconds": trained.seconds,
                 "trained_ahead": self._trained_ahead,
+                "compiled": bool(self.trainer.compile),  # False also after torch.compile failed and gda went on eagerly
                 "samples_drawn": drawn,
                 "sample_seconds": sample_seconds,
             }
