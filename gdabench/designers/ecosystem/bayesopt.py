@@ -122,6 +122,8 @@ class BayesianOptimization(Designer):
     def _thompson(self, pool: list[Body], q: int) -> list[int]:
         """Indices of ``q`` distinct candidates, each the best of one joint posterior draw."""
         import torch
+
+        from ..gda.runtime import torch_threads  # one torch thread: a small GP runs tens of times faster than on two busy cores
         from botorch.fit import fit_gpytorch_mll
         from botorch.generation.sampling import MaxPosteriorSampling
         from botorch.models import SingleTaskGP
@@ -130,7 +132,7 @@ class BayesianOptimization(Designer):
 
         bodies, scores = self._training_set()
         torch_seed = int(self.rng.integers(2**63 - 1))
-        with _torch_threads(self.threads), torch.random.fork_rng(), _quiet():
+        with torch_threads(self.threads), torch.random.fork_rng(), _quiet():
             torch.manual_seed(torch_seed)
             x = one_hot(bodies)
             y = torch.tensor(scores, dtype=torch.float64).unsqueeze(-1)
@@ -153,22 +155,6 @@ def one_hot(bodies: Sequence[Body]) -> Any:
 
     codes = torch.as_tensor(np.stack([b.voxels for b in bodies]).reshape(len(bodies), -1), dtype=torch.long)
     return torch.nn.functional.one_hot(codes, N_VOXEL_TYPES).reshape(len(bodies), -1).to(torch.float64)
-
-
-@contextlib.contextmanager
-def _torch_threads(threads: int | None) -> Iterator[None]:
-    """``threads`` torch threads inside the block: a small GP on a shared 2-core machine runs
-    tens of times faster on one thread than on two that wait for each other."""
-    import torch
-
-    previous = torch.get_num_threads()
-    if threads is not None and threads != previous:
-        torch.set_num_threads(threads)
-    try:
-        yield
-    finally:
-        if torch.get_num_threads() != previous:
-            torch.set_num_threads(previous)
 
 
 @contextlib.contextmanager
