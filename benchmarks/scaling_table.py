@@ -303,8 +303,8 @@ def plot(table: pd.DataFrame, envs: Sequence[PluginChoice], designers: Sequence[
             g = sel[sel["designer"] == d].sort_values("voxels")
             if g.empty:
                 continue
-            seeds = sorted(set(g["seeds"]))
-            name = d if seeds == [10] else f"{d} ({'/'.join(str(s) for s in seeds)} seeds)"
+            seeds = g["seeds"].tolist()  # per shape, smallest first: "seeds 10, 10, 1" reads as what ran where
+            name = d if set(seeds) == {10} else f"{d} (seeds {', '.join(str(s) for s in seeds)})"
             line = ax.plot(g["voxels"], g["gap_median"], marker="o", label=name)[0]
             ax.fill_between(g["voxels"], g["gap_q1"], g["gap_q3"], color=line.get_color(), alpha=0.15)
         ax.set_xscale("log")

@@ -20,6 +20,7 @@ from gdabench.body import (
     is_connected,
     parse_shape,
     random_body,
+    valid_mask,
 )
 from gdabench.errors import MalformedBodyError
 
@@ -119,6 +120,32 @@ def test_random_body_is_valid_unique_and_follows_evogym_weights():
     freq = np.bincount(np.concatenate([b.voxels.ravel() for b in bodies]), minlength=5) / (300 * 25)
     assert 0.25 < freq[0] < 0.45  # validity favours fuller bodies a little
     assert all(0.1 < f < 0.25 for f in freq[1:])
+
+
+def one_at_a_time(rng: np.random.Generator, shape, exclude) -> Body:
+    """Evolution Gym's sample_robot as written: one grid per draw until it is valid and new."""
+    p = EVOGYM_VOXEL_WEIGHTS / EVOGYM_VOXEL_WEIGHTS.sum()
+    while True:
+        voxels = rng.choice(5, size=shape, p=p).astype(np.int8)
+        if invalid_reason(voxels) is None and Body(voxels).hash not in exclude:
+            return Body(voxels)
+
+
+@pytest.mark.parametrize("shape, n", [((5, 5), 60), ((3, 7), 40), ((1, 2), 10), ((12, 12), 3)])
+def test_batched_sampler_draws_exactly_what_one_at_a_time_drawing_does(shape, n):
+    ours, theirs = np.random.default_rng(7), np.random.default_rng(7)
+    seen: set[str] = set()
+    for _ in range(n):
+        body = random_body(ours, shape, exclude=seen)
+        assert body == one_at_a_time(theirs, shape, seen)
+        seen.add(body.hash)
+    assert ours.random() == theirs.random()  # the stream goes on where one-at-a-time drawing left it
+
+
+@given(arrays(np.int8, st.tuples(st.integers(1, 6), st.integers(1, 6), st.integers(1, 6)), elements=st.integers(0, 4)))
+@settings(max_examples=200, deadline=None)
+def test_valid_mask_is_the_validity_rule_grid_by_grid(grids):
+    assert valid_mask(grids).tolist() == [invalid_reason(g) is None for g in grids]
 
 
 def test_parse_shape():

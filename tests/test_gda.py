@@ -18,13 +18,14 @@ import torch.nn.functional as F
 from torch._dynamo.utils import counters
 
 from gdabench import Body, ConfigError, make_designer, random_body
+from gdabench.body import categorize
 from gdabench.designers.gda import GenerationalDiffusion
 from gdabench.designers.gda import designer as gda_designer
 from gdabench.designers.gda.backprop import FastUNet, module_layout
 from gdabench.designers.gda.encoding import EVOGYM_TO_MODEL, decode, encode, published_reencoding
 from gdabench.designers.gda.model import UNet, parameter_count
 from gdabench.designers.gda.runtime import torch_threads
-from gdabench.designers.gda.sampling import ancestral_sample, ddim_sample
+from gdabench.designers.gda.sampling import ancestral_sample, ddim_sample, denoise, noised
 from gdabench.designers.gda.schedule import make_schedule
 from gdabench.designers.gda import speculation
 from gdabench.designers.gda.surrogate import ridge_predictor
@@ -447,6 +448,14 @@ def test_prior_bodies_train_the_first_model(tmp_path, captured_training):
         ({"pool": 5}, "pool must be at least the population"),
         ({"speculate": "sometimes"}, "speculate must be"),
         ({"speculate": True, "warm_start": True}, "speculate=true needs"),
+        ({"speculate": True, "hybrid": 2}, "speculate=true needs"),
+        ({"crossover": 1.5}, "crossover must be a share"),
+        ({"crossover": 0.5, "crossover_t": 50}, "crossover_t must be a timestep between 1 and steps - 1 = 49"),
+        ({"hybrid": 1}, "hybrid must be 0"),
+        ({"categories": "0.5/0.5"}, "categories must be three shares near-copy/new-materials/novel-shape"),
+        ({"categories": "0.5/0.6/-0.1"}, "categories must be three shares"),
+        ({"categories": "a/b/c"}, "categories must be three shares"),
+        ({"categories": "0/0/1", "pool": 40}, "categories and pool"),
     ],
 )
 def test_bad_parameters_are_one_line_errors(params, message):
@@ -552,3 +561,90 @@ def test_a_dead_training_process_costs_the_overlap_not_the_run():
         designer.tell(proposed, [SCHEDULED_REWARDS.get(generation, reward(b)) for b in proposed])
     assert bodies == plain
     assert designer.speculate is False
+
+
+# -- the thesis's proposed operators (sections 6.3-6.4) ---------------------------------------------
+def test_denoising_from_a_partly_noised_body_recovers_it_given_the_exact_noise_predictor():
+    schedule = make_schedule("linear", 500, 1e-4, 0.02)
+    x0 = torch.from_numpy(encode(TARGET.voxels))
+    generator = torch.Generator().manual_seed(0)
+    for t in (1, 40, 150, 499):
+        x = noised(schedule, x0.expand(8, 1, 5, 5), t, generator)
+        assert not torch.allclose(x, x0.expand_as(x), atol=1e-3)
+        assert all(np.array_equal(d, TARGET.voxels) for d in decode(denoise(Oracle(x0, schedule), schedule, x, t, generator)[:, 0].numpy()))
+
+
+def test_ancestral_sampling_is_denoising_from_pure_noise(one_body_model):
+    *_, trainer = one_body_model
+    schedule = trainer.schedule
+    full = ancestral_sample(trainer.model, schedule, 6, (5, 5), torch.Generator().manual_seed(4), torch.device("cpu"))
+    generator = torch.Generator().manual_seed(4)
+    x = torch.randn((6, 1, 5, 5), generator=generator)
+    assert torch.equal(full, denoise(trainer.model, schedule, x, schedule.steps - 1, generator))
+
+
+def between_share(child: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """Share of voxels whose model code lies between the two parents' codes."""
+    c, a, b = (EVOGYM_TO_MODEL[np.asarray(v, dtype=int)] for v in (child, a, b))
+    return float(np.mean((np.minimum(a, b) <= c) & (c <= np.maximum(a, b))))
+
+
+def test_crossover_children_are_interpolations_of_two_survivors():
+    designer = gda(seed=1, crossover=0.4, crossover_t=3)  # barely noised: the child is the interpolation
+    run(designer, 3)
+    parents = [s.body.voxels for s in designer.survivors]
+    bodies = designer.ask()
+    sources = [row["source"] for row in designer.proposal_info()]
+    assert sources[:4] == ["crossover"] * 4 and "crossover" not in sources[4:]
+    for child in bodies[:4]:
+        best = max(between_share(child.voxels, a, b) for i, a in enumerate(parents) for b in parents[i + 1 :])
+        assert best >= 0.9
+        assert all(not np.array_equal(child.voxels, p) for p in parents)
+
+
+def test_crossover_proposals_stay_valid_unique_and_new():
+    designer = gda(crossover=1.0, crossover_t=30)
+    history = run(designer, 4)
+    everything = [b for gen in history for b in gen]
+    assert all(len(gen) == 10 for gen in history) and all(b.is_valid() for b in everything)
+    assert len({b.hash for b in everything}) == len(everything)
+    assert {row["source"] for row in designer.proposal_info()} <= {"crossover", "random"}
+
+
+def test_category_shares_split_a_generation_by_largest_remainders():
+    assert gda_designer.share_counts((0.3, 0.3, 0.4), 10) == [3, 3, 4]
+    assert gda_designer.share_counts((0.3, 0.3, 0.4), 25) == [8, 7, 10]
+    assert gda_designer.share_counts((1 / 3, 1 / 3, 1 / 3), 4) == [2, 1, 1]
+    assert sum(gda_designer.share_counts((0.3, 0.3, 0.4), 7)) == 7
+
+
+@pytest.mark.parametrize("shares, wanted", [("0/0/1", 3), ("0/1/0", 2), ("0.5/0/0.5", (1, 3))])
+def test_category_filtered_sampling_keeps_the_shares_asked_for(shares, wanted):
+    designer = gda(seed=3, categories=shares, max_samples=5000)
+    run(designer, 2)
+    parents = np.stack([s.body.voxels for s in designer.survivors])
+    bodies = designer.ask()
+    sampled = [b for b, row in zip(bodies, designer.proposal_info()) if row["source"] == "sampled"]
+    assert len(sampled) == 10
+    _, category = categorize(np.stack([b.voxels for b in sampled]), parents)
+    if isinstance(wanted, tuple):
+        assert sorted(category.tolist()) == [wanted[0]] * 5 + [wanted[1]] * 5
+    else:
+        assert set(category.tolist()) == {wanted}
+
+
+def test_hybrid_schedule_alternates_mutation_and_diffusion(captured_training):
+    designer = gda(seed=4, hybrid=2)
+    sources, trainings = [], []
+    for _ in range(5):
+        parents = [s.body for s in designer.survivors]
+        bodies = designer.ask()
+        sources.append({row["source"] for row in designer.proposal_info()})
+        trainings.append(len(captured_training))
+        if sources[-1] == {"mutation"}:  # the GA's operator: each child a few voxels from a survivor
+            distance, _ = categorize(np.stack([b.voxels for b in bodies]), np.stack([p.voxels for p in parents]))
+            assert np.median(distance) <= 4 and distance.min() >= 1
+        designer.tell(bodies, [reward(b) for b in bodies])
+    assert sources[0] == {"initial"} and sources[2] == sources[4] == {"mutation"}
+    assert sources[1] <= {"sampled", "random"} and sources[3] <= {"sampled", "random"}
+    assert trainings == [0, 1, 1, 2, 2]  # no model is trained for a GA generation

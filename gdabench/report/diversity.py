@@ -26,15 +26,13 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
+from ..body import CATEGORIES, NEAR_COPY, categorize, hamming
 from ..errors import RunDirectoryError
 from ..execution.evaluation import OK
 from .stats import RUN_KEYS
 
 #: survivors per generation in the thesis's GDA and simple-environment GA
 SURVIVORS = 5
-#: a proposal this many voxels (or fewer) away from a survivor is a near-copy (GA mutates ~2.5 of 25)
-NEAR_COPY = 3
-CATEGORIES = ("copy", "near-copy", "new materials", "novel shape")
 COLUMNS = [
     "proposals",
     "unique",
@@ -58,19 +56,6 @@ def body_matrix(texts: Sequence[str]) -> np.ndarray:
     if codes.size and (codes.min() < ord("0") or codes.max() > ord("4")):
         raise RunDirectoryError("malformed body text in the evaluations table (voxel codes must be 0-4)")
     return (codes - ord("0")).astype(np.int8)
-
-
-def hamming(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(len(a), len(b)) matrix of the number of differing voxels."""
-    return (a[:, None, :] != b[None, :, :]).sum(axis=2)
-
-
-def categorize(proposals: np.ndarray, survivors: np.ndarray, near_copy: int = NEAR_COPY) -> tuple[np.ndarray, np.ndarray]:
-    """Distance of each proposal to its nearest survivor, and its category index in CATEGORIES."""
-    distance = hamming(proposals, survivors).min(axis=1)
-    same_shape = hamming(proposals != 0, survivors != 0).min(axis=1) == 0
-    category = np.select([distance == 0, distance <= near_copy, same_shape], [0, 1, 2], default=3)
-    return distance, category
 
 
 def run_diversity(run: pd.DataFrame, survivors: int = SURVIVORS, near_copy: int = NEAR_COPY) -> pd.DataFrame:

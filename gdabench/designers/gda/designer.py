@@ -27,6 +27,11 @@ Options beyond the thesis (each measured against the faithful setting in docs/be
 ``warm_start`` (continue from the previous generation's weights), ``pool`` (draw more new
 bodies than needed and propose those a reward regression rates best), ``prior`` (train
 generation 0's model on the best bodies of another run instead of sampling at random).
+The operators the thesis proposes (sections 6.3-6.4; measured in docs/benchmarks/gda-operators.md):
+``crossover`` (a share of each generation made by noising two survivors to ``crossover_t``,
+interpolating and denoising), ``categories`` (target shares of near-copies, same shape with new
+materials and novel shapes among the sampled bodies) and ``hybrid`` (every ``hybrid``-th
+generation made by the GA's mutation of the survivors instead of a model).
 Speed options that keep the results' distribution: ``compile`` (``torch.compile`` the
 training step and the sampling network: same distribution, other rounding), ``threads``,
 ``device``; ``speculate`` (train models ahead on both cores: on a second one while this one
@@ -46,18 +51,19 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import torch
 
-from ...body import Body, as_body, invalid_reason, random_body
+from ...body import CATEGORIES, Body, as_body, categorize, invalid_reason, mutate, random_body
 from ...designer import Designer, top_k
 from ...errors import ConfigError, GdabenchError
 from .encoding import decode, encode, published_reencoding
 from .runtime import check_threads, resolve_device, torch_threads
-from .sampling import SAMPLERS, ancestral_sample, ddim_sample
+from .sampling import SAMPLERS, ancestral_sample, ddim_sample, denoise, noised
 from .schedule import make_schedule
 from .speculation import Following, Speculation, WorkerConfig, WorkerError, wanted
 from .surrogate import ridge_predictor
 from .training import Trainer, TrainJob, TrainResult
 
 TORCH_STREAM = 1  # spawn-key branch of the designer's seed used for torch (weights, noise)
+MUTATION_RATE = 0.1  # the hybrid schedule's GA generations mutate as ``ga`` does by default
 MAX_PASS = 256  # most samples denoised in one pass when the pass size adapts
 #: compile='auto' compiles training and sampling, and speculate='auto' trains ahead on a second
 #: core, when a run trains at least this many steps: about where the ~1 ms saved per step
@@ -96,6 +102,10 @@ class GenerationalDiffusion(Designer):
         temperature: scale of the noise added while sampling
         pool: draw this many new bodies and propose those a ridge regression on rewards rates best
         max_samples: draws per generation before the rest is filled with random bodies
+        crossover: share of each generation made by interpolating two noised survivors and denoising (0: none)
+        crossover_t: timestep the two survivors are noised to before they are interpolated
+        categories: target shares near-copy/new-materials/novel-shape of the sampled bodies, e.g. 0.3/0.3/0.4
+        hybrid: every hybrid-th generation is made by mutating survivors as the GA does, not by a model (0: never)
         target_mse: stop training at the first epoch whose mean loss is at most this
         warm_start: train from the previous generation's weights instead of fresh ones
         published_reencoding: re-encode survivors in place as the author's code does (reproduces the thesis)
@@ -125,6 +135,10 @@ class GenerationalDiffusion(Designer):
         temperature: float = 1.0,
         pool: int | None = None,
         max_samples: int = 1000,
+        crossover: float = 0.0,
+        crossover_t: int = 150,
+        categories: str | None = None,
+        hybrid: int = 0,
         target_mse: float | None = None,
         warm_start: bool = False,
         published_reencoding: bool = False,
@@ -180,8 +194,18 @@ class GenerationalDiffusion(Designer):
         self.compile = compile
         if speculate not in (True, False, "auto"):
             raise ConfigError(f"gda: speculate must be true, false or auto, got {speculate!r}")
-        if speculate is True and (self.warm_start or self.published_reencoding or resolve_device(device).type != "cpu"):
-            raise ConfigError("gda: speculate=true needs device=cpu and neither warm_start nor published_reencoding")
+        if not 0.0 <= crossover <= 1.0:
+            raise ConfigError(f"gda: crossover must be a share between 0 and 1, got {crossover!r}")
+        if crossover and not 1 <= crossover_t < self.schedule_args[1]:
+            raise ConfigError(f"gda: crossover_t must be a timestep between 1 and steps - 1 = {self.schedule_args[1] - 1}, got {crossover_t!r}")
+        if not isinstance(hybrid, int) or isinstance(hybrid, bool) or hybrid < 0 or hybrid == 1:
+            raise ConfigError(f"gda: hybrid must be 0 (never) or at least 2 (every hybrid-th generation), got {hybrid!r}")
+        self.crossover, self.crossover_t, self.hybrid = float(crossover), crossover_t, hybrid
+        self.category_shares = parse_shares(categories) if categories is not None else None
+        if self.category_shares is not None and pool is not None:
+            raise ConfigError("gda: categories and pool both choose among samples; give one of them")
+        if speculate is True and (self.warm_start or self.published_reencoding or hybrid or resolve_device(device).type != "cpu"):
+            raise ConfigError("gda: speculate=true needs device=cpu and none of warm_start, published_reencoding, hybrid")
         self.speculate = speculate
         self.prior_bodies = load_prior(prior, prior_top, self.shape) if prior else []
 
@@ -210,6 +234,9 @@ class GenerationalDiffusion(Designer):
         if training_set is None:
             bodies = [self._remember(random_body(self.rng, self.shape, exclude=self._seen)) for _ in range(wanted)]
             self._info = [{"source": "initial"} for _ in bodies]
+        elif self.hybrid and self.generation % self.hybrid == 0:
+            bodies = self._mutants(wanted)
+            self._info = [{"source": "mutation"} for _ in bodies]
         else:
             generator = self._torch_generator()
             trained = self._train(training_set, generator)
@@ -219,14 +246,18 @@ class GenerationalDiffusion(Designer):
                 except WorkerError as exc:
                     self._stop_speculating(exc)
             start = time.perf_counter()
-            if self.pool is None:
-                sampled, drawn = self._sample_new(wanted, generator)
+            children, drawn = self._crossover_new(round(self.crossover * wanted), training_set, generator)
+            if self.pool is not None:
+                candidates, more = self._sample_new(self.pool, generator, remember=False)
+                sampled = [self._remember(b) for b in self._most_promising(candidates, wanted - len(children))]
+            elif self.category_shares is not None:
+                sampled, more = self._sample_by_category(wanted - len(children), training_set, generator)
             else:
-                candidates, drawn = self._sample_new(self.pool, generator, remember=False)
-                sampled = [self._remember(b) for b in self._most_promising(candidates, wanted)]
+                sampled, more = self._sample_new(wanted - len(children), generator)
+            drawn += more
             sample_seconds = time.perf_counter() - start
-            fallback = [self._remember(random_body(self.rng, self.shape, exclude=self._seen)) for _ in range(wanted - len(sampled))]
-            bodies = sampled + fallback
+            fallback = [self._remember(random_body(self.rng, self.shape, exclude=self._seen)) for _ in range(wanted - len(children) - len(sampled))]
+            bodies = children + sampled + fallback
             common = {
                 "train_epochs": trained.epochs,
                 "train_loss": trained.loss,
@@ -236,7 +267,8 @@ class GenerationalDiffusion(Designer):
                 "samples_drawn": drawn,
                 "sample_seconds": sample_seconds,
             }
-            self._info = [{"source": "sampled", **common} for _ in sampled] + [{"source": "random", **common} for _ in fallback]
+            sources = ["crossover"] * len(children) + ["sampled"] * len(sampled) + ["random"] * len(fallback)
+            self._info = [{"source": source, **common} for source in sources]
         self.generation += 1
         return bodies
 
@@ -285,7 +317,7 @@ class GenerationalDiffusion(Designer):
     def _speculates(self) -> bool:
         """Whether models are trained ahead from now on (then ``_speculation`` is set)."""
         if self._speculation is None:
-            eligible = not self.warm_start and not self.published_reencoding and self._long_run()
+            eligible = not self.warm_start and not self.published_reencoding and not self.hybrid and self._long_run()
             if wanted(self.speculate, eligible):
                 self._speculation = Speculation(self._worker_config())
         return self._speculation is not None
@@ -368,16 +400,102 @@ class GenerationalDiffusion(Designer):
             n = self._pass_size(wanted - len(accepted), self.max_samples - drawn)
             for voxels in self._draw(n, generator):
                 drawn += 1
-                if invalid_reason(voxels) is None:
-                    body = Body(voxels)
-                    if body.hash not in self._seen and body.hash not in taken:
-                        taken.add(body.hash)
-                        accepted.append(self._remember(body) if remember else body)
-                        if len(accepted) == wanted:
-                            break
+                body = self._accept(voxels, taken)
+                if body is not None:
+                    accepted.append(self._remember(body) if remember else body)
+                    if len(accepted) == wanted:
+                        break
         if drawn:
             self._acceptance = 0.5 * self._acceptance + 0.5 * max(len(accepted) / drawn, 0.02)
         return accepted, drawn
+
+    def _accept(self, voxels: np.ndarray, taken: set[str]) -> Body | None:
+        """``voxels`` as a body if it is valid and neither seen nor ``taken`` yet (then it is taken)."""
+        if invalid_reason(voxels) is not None:
+            return None
+        body = Body(voxels)
+        if body.hash in self._seen or body.hash in taken:
+            return None
+        taken.add(body.hash)
+        return body
+
+    def _crossover_new(self, wanted: int, parents: list[np.ndarray], generator: torch.Generator) -> tuple[list[Body], int]:
+        """Up to ``wanted`` new bodies made by the interpolation crossover (thesis section 6.4).
+
+        Two distinct survivors are drawn, a weight ``w`` uniformly from [0, 1]; ``w a + (1 - w) b``
+        is diffused to ``crossover_t`` and denoised by the model.  (Noising a and b separately and
+        interpolating, with the noise rescaled to the variance the model expects at that timestep,
+        is the same distribution.)  At most ``max_samples`` candidates are drawn.
+        """
+        if wanted < 1 or len(parents) < 2:
+            return [], 0
+        trainer = self.trainer
+        data = torch.from_numpy(encode(np.stack(parents))[:, None])
+        accepted: list[Body] = []
+        taken: set[str] = set()
+        drawn = 0
+        while len(accepted) < wanted and drawn < self.max_samples:
+            n = self._pass_size(wanted - len(accepted), self.max_samples - drawn)
+            first = torch.randint(len(parents), (n,), generator=generator)
+            second = (first + torch.randint(1, len(parents), (n,), generator=generator)) % len(parents)
+            w = torch.rand((n, 1, 1, 1), generator=generator)
+            x = noised(trainer.schedule, w * data[first] + (1 - w) * data[second], self.crossover_t, generator).to(trainer.device)
+            x = denoise(trainer.model, trainer.schedule, x, self.crossover_t, generator, self.temperature, trainer.sample_forward())
+            for voxels in decode(x[:, 0].cpu().numpy()):
+                drawn += 1
+                body = self._accept(voxels, taken)
+                if body is not None:
+                    accepted.append(self._remember(body))
+                    if len(accepted) == wanted:
+                        break
+        return accepted, drawn
+
+    def _sample_by_category(self, wanted: int, parents: list[np.ndarray], generator: torch.Generator) -> tuple[list[Body], int]:
+        """Up to ``wanted`` new sampled bodies whose categories relative to the survivors (near-copy,
+        new materials, novel shape; :func:`gdabench.body.categorize`) meet ``categories``' shares.
+
+        Samples are sorted into their category until its quota is full; when ``max_samples`` draws
+        leave a quota short, the surplus of the other categories fills it, in sampling order.
+        """
+        quotas = share_counts(self.category_shares, wanted)
+        buckets: list[list[Body]] = [[] for _ in quotas]
+        surplus: list[Body] = []
+        taken: set[str] = set()
+        survivors = np.stack(parents)
+        drawn = 0
+        while any(len(b) < q for b, q in zip(buckets, quotas)) and drawn < self.max_samples:
+            missing = sum(q - len(b) for b, q in zip(buckets, quotas))
+            n = self._pass_size(missing, self.max_samples - drawn)
+            fresh = []
+            for voxels in self._draw(n, generator):
+                drawn += 1
+                body = self._accept(voxels, taken)
+                if body is not None:
+                    fresh.append(body)
+            if not fresh:
+                continue
+            _, category = categorize(np.stack([b.voxels for b in fresh]), survivors)
+            for body, c in zip(fresh, category):
+                k = max(int(c), 1) - 1  # a copy of a prior's body (survivors were seen) counts as a near-copy
+                (buckets[k] if len(buckets[k]) < quotas[k] else surplus).append(body)
+        accepted = [b for bucket in buckets for b in bucket]
+        accepted += surplus[: wanted - len(accepted)]
+        if drawn:
+            self._acceptance = 0.5 * self._acceptance + 0.5 * max(len(accepted) / drawn, 0.02)
+        return [self._remember(b) for b in accepted], drawn
+
+    def _mutants(self, wanted: int) -> list[Body]:
+        """``wanted`` new bodies by the GA's operator: a uniformly chosen survivor, each voxel redrawn
+        with probability 0.1 until valid (Evolution Gym's ``mutate``); random bodies if none is found."""
+        children: list[Body] = []
+        for _ in range(100 * wanted):
+            if len(children) == wanted:
+                break
+            parent = self.survivors[int(self.rng.integers(len(self.survivors)))].body
+            child = mutate(parent, self.rng, MUTATION_RATE)
+            if child is not None and child.hash not in self._seen:
+                children.append(self._remember(child))
+        return children + [self._remember(random_body(self.rng, self.shape, exclude=self._seen)) for _ in range(wanted - len(children))]
 
     def _most_promising(self, candidates: list[Body], k: int) -> list[Body]:
         """The ``k`` candidates a ridge regression on all evaluated bodies rates best (ties: sampling order)."""
@@ -432,3 +550,24 @@ def load_prior(source: str, top: int, shape: tuple[int, int]) -> list[Body]:
     if not bodies:
         raise ConfigError(f"gda: prior {source!r} holds no valid {shape[0]}x{shape[1]} body")
     return bodies
+
+
+def parse_shares(text: str) -> tuple[float, float, float]:
+    """``'0.3/0.3/0.4'`` -> the target shares of near-copies, new materials and novel shapes (summing to 1)."""
+    names = "/".join(c.replace(" ", "-") for c in CATEGORIES[1:])
+    try:
+        shares = tuple(float(part) for part in str(text).split("/"))
+    except ValueError:
+        shares = ()
+    if len(shares) != 3 or any(not v >= 0 for v in shares) or not math.isclose(sum(shares), 1.0, abs_tol=1e-6):
+        raise ConfigError(f"gda: categories must be three shares {names} summing to 1, e.g. 0.3/0.3/0.4; got {text!r}")
+    return shares  # type: ignore[return-value]
+
+
+def share_counts(shares: Sequence[float], n: int) -> list[int]:
+    """``n`` split by ``shares`` into whole counts (largest remainders; ties to the earlier share)."""
+    exact = [share * n for share in shares]
+    counts = [math.floor(e) for e in exact]
+    for i in sorted(range(len(exact)), key=lambda i: counts[i] - exact[i])[: n - sum(counts)]:
+        counts[i] += 1
+    return counts

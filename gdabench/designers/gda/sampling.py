@@ -41,19 +41,40 @@ def ancestral_sample(
     chain drifts towards the modes of what the model learnt, e.g. the voxel-wise consensus
     of the survivors.  ``forward`` replaces ``model.forward_features`` (e.g. compiled).
     """
-    model.eval()
-    T = schedule.steps
-    betas, alphas, alpha_bars = schedule.betas.tolist(), schedule.alphas.tolist(), schedule.alpha_bars.tolist()
     x = torch.randn((n, 1, *shape), generator=generator).to(device)
-    z = torch.randn((max(T - 2, 0), n, 1, *shape), generator=generator).to(device)  # for t = T-1 .. 2
-    feats = model.time_features(torch.arange(T, device=device))
+    return denoise(model, schedule, x, schedule.steps - 1, generator, temperature, forward)
+
+
+@torch.inference_mode()
+def denoise(
+    model: UNet,
+    schedule: NoiseSchedule,
+    x: torch.Tensor,
+    start: int,
+    generator: torch.Generator,
+    temperature: float = 1.0,
+    forward: Callable[[torch.Tensor, torch.Tensor], torch.Tensor] | None = None,
+) -> torch.Tensor:
+    """Ancestral steps from ``x`` at timestep ``start`` down to t = 1 (``start`` network calls);
+    ``x`` is updated in place and returned.  From T-1 this is the thesis sampler; from an earlier
+    timestep it completes a partly noised body (the interpolation crossover's second half)."""
+    model.eval()
+    betas, alphas, alpha_bars = schedule.betas.tolist(), schedule.alphas.tolist(), schedule.alpha_bars.tolist()
+    z = torch.randn((max(start - 1, 0), *x.shape), generator=generator).to(x.device)  # for t = start .. 2
+    feats = model.time_features(torch.arange(schedule.steps, device=x.device))  # all T: the same rounding as from T-1
     forward = forward or model.forward_features
-    for t in range(T - 1, 0, -1):
+    for t in range(start, 0, -1):
         eps = forward(x, feats[t : t + 1])
         x.sub_(eps, alpha=(1.0 - alphas[t]) / math.sqrt(1.0 - alpha_bars[t])).mul_(1.0 / math.sqrt(alphas[t]))
         if t > 1:
-            x.add_(z[T - 1 - t], alpha=temperature * math.sqrt(betas[t]))
+            x.add_(z[start - t], alpha=temperature * math.sqrt(betas[t]))
     return x
+
+
+def noised(schedule: NoiseSchedule, x0: torch.Tensor, t: int, generator: torch.Generator) -> torch.Tensor:
+    """``x0`` diffused forward to timestep ``t``: ``sqrt(ab_t) x0 + sqrt(1 - ab_t) z``."""
+    ab = float(schedule.alpha_bars[t])
+    return math.sqrt(ab) * x0 + math.sqrt(1.0 - ab) * torch.randn(x0.shape, generator=generator).to(x0.device)
 
 
 def ddim_timesteps(T: int, steps: int) -> list[int]:
