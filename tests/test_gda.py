@@ -583,23 +583,21 @@ def test_ancestral_sampling_is_denoising_from_pure_noise(one_body_model):
     assert torch.equal(full, denoise(trainer.model, schedule, x, schedule.steps - 1, generator))
 
 
-def between_share(child: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
-    """Share of voxels whose model code lies between the two parents' codes."""
-    c, a, b = (EVOGYM_TO_MODEL[np.asarray(v, dtype=int)] for v in (child, a, b))
-    return float(np.mean((np.minimum(a, b) <= c) & (c <= np.maximum(a, b))))
-
-
-def test_crossover_children_are_interpolations_of_two_survivors():
-    designer = gda(seed=1, crossover=0.4, crossover_t=3)  # barely noised: the child is the interpolation
+def test_crossover_children_are_interpolations_of_two_survivors(monkeypatch):
+    designer = gda(seed=1, crossover=0.4, crossover_t=20)
     run(designer, 3)
-    parents = [s.body.voxels for s in designer.survivors]
+    parents = [encode(s.body.voxels) for s in designer.survivors]
+    # without the noise and the model's denoising, a child is exactly the decoded mix w a + (1 - w) b
+    monkeypatch.setattr(gda_designer, "noised", lambda schedule, x0, t, generator: x0)
+    monkeypatch.setattr(gda_designer, "denoise", lambda model, schedule, x, t, generator, *rest: x)
     bodies = designer.ask()
     sources = [row["source"] for row in designer.proposal_info()]
     assert sources[:4] == ["crossover"] * 4 and "crossover" not in sources[4:]
+    weights = np.linspace(0, 1, 2001, dtype=np.float32)[:, None, None]
     for child in bodies[:4]:
-        best = max(between_share(child.voxels, a, b) for i, a in enumerate(parents) for b in parents[i + 1 :])
-        assert best >= 0.9
-        assert all(not np.array_equal(child.voxels, p) for p in parents)
+        mixes = [decode(w * a + (1 - w) * b) for i, a in enumerate(parents) for b in parents[i + 1 :] for w in (weights,)]
+        assert any((mix == child.voxels).all(axis=(1, 2)).any() for mix in mixes)
+        assert all(not np.array_equal(child.voxels, decode(p)) for p in parents)
 
 
 def test_crossover_proposals_stay_valid_unique_and_new():
@@ -618,19 +616,40 @@ def test_category_shares_split_a_generation_by_largest_remainders():
     assert sum(gda_designer.share_counts((0.3, 0.3, 0.4), 7)) == 7
 
 
-@pytest.mark.parametrize("shares, wanted", [("0/0/1", 3), ("0/1/0", 2), ("0.5/0/0.5", (1, 3))])
-def test_category_filtered_sampling_keeps_the_shares_asked_for(shares, wanted):
-    designer = gda(seed=3, categories=shares, max_samples=5000)
+def test_category_filtered_sampling_can_ask_for_novel_shapes_only():
+    designer = gda(seed=3, categories="0/0/1", max_samples=5000)
     run(designer, 2)
     parents = np.stack([s.body.voxels for s in designer.survivors])
     bodies = designer.ask()
-    sampled = [b for b, row in zip(bodies, designer.proposal_info()) if row["source"] == "sampled"]
-    assert len(sampled) == 10
-    _, category = categorize(np.stack([b.voxels for b in sampled]), parents)
-    if isinstance(wanted, tuple):
-        assert sorted(category.tolist()) == [wanted[0]] * 5 + [wanted[1]] * 5
-    else:
-        assert set(category.tolist()) == {wanted}
+    assert [row["source"] for row in designer.proposal_info()] == ["sampled"] * 10
+    assert set(categorize(np.stack([b.voxels for b in bodies]), parents)[1].tolist()) == {3}
+
+
+def test_category_filtered_sampling_fills_each_share_in_sampling_order(monkeypatch):
+    designer = gda(seed=3, categories="0.3/0.3/0.4", max_samples=200)
+    run(designer, 2)
+    parents = np.stack([s.body.voxels for s in designer.survivors])
+    rng = np.random.default_rng(0)
+    by_category: dict[int, list[np.ndarray]] = {1: [], 2: [], 3: []}
+    while min(len(v) for v in by_category.values()) < 20:  # candidates of every category, sorted by categorize
+        parent = designer.survivors[int(rng.integers(5))].body
+        child = gda_designer.mutate(parent, rng, rate=float(rng.choice([0.04, 0.3])))
+        if rng.random() < 0.3:  # same shape, new materials: redraw the types of occupied voxels
+            child = Body(np.where(parent.voxels > 0, rng.integers(1, 5, parent.voxels.shape), 0))
+        if child is None or not child.is_valid() or child.hash in designer._seen:
+            continue
+        c = int(categorize(child.voxels[None], parents)[1][0])
+        if c and all(not np.array_equal(child.voxels, v) for vs in by_category.values() for v in vs):
+            by_category[c].append(np.array(child.voxels))
+    # the model's stream: 20 novel shapes, then only 2 near-copies, then 10 new materials
+    stream = by_category[3][:20] + by_category[1][:2] + by_category[2][:10]
+    monkeypatch.setattr(designer, "_draw", lambda n, generator: np.stack([stream.pop(0) if stream else np.zeros((5, 5), np.int8) for _ in range(n)]))
+    bodies = [b.voxels for b in designer.ask()]
+    # quotas 3/3/4 of 10: both near-copies, the first 3 new materials, the first 4 novel shapes, and the
+    # missing near-copy filled by the first surplus body in sampling order (the 5th novel shape)
+    expected = by_category[1][:2] + by_category[2][:3] + by_category[3][:4] + by_category[3][4:5]
+    assert [b.tolist() for b in bodies] == [e.tolist() for e in expected]
+    assert [row["source"] for row in designer.proposal_info()] == ["sampled"] * 10
 
 
 def test_hybrid_schedule_alternates_mutation_and_diffusion(captured_training):
