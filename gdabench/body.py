@@ -196,28 +196,19 @@ def random_body(
 
 
 def valid_mask(grids: np.ndarray) -> np.ndarray:
-    """:func:`is_valid` for a stack of grids (n, H, W) at once: an actuator and one 4-connected body."""
+    """:func:`is_valid` for a stack of grids (n, H, W): grids without an actuator, or with an
+    occupied voxel that has no occupied neighbour (most large random grids), are ruled out together;
+    the few left are flood-filled one by one."""
     occupied = grids != EMPTY
-    ok = np.any((grids == H_ACT) | (grids == V_ACT), axis=(1, 2))
-    candidates = np.flatnonzero(ok)
-    if len(candidates) == 0:
-        return ok
-    occ = occupied[candidates]
-    flat = occ.reshape(len(occ), -1)
-    reach = np.zeros_like(flat)
-    reach[np.arange(len(flat)), flat.argmax(axis=1)] = True  # flood from the first occupied voxel
-    reach = reach.reshape(occ.shape)
-    while True:
-        grown = reach.copy()
-        grown[:, 1:] |= reach[:, :-1]
-        grown[:, :-1] |= reach[:, 1:]
-        grown[:, :, 1:] |= reach[:, :, :-1]
-        grown[:, :, :-1] |= reach[:, :, 1:]
-        grown &= occ
-        if np.array_equal(grown, reach):
-            break
-        reach = grown
-    ok[candidates] = np.all(reach == occ, axis=(1, 2))
+    neighbours = np.zeros(occupied.shape, dtype=bool)
+    neighbours[:, 1:] |= occupied[:, :-1]
+    neighbours[:, :-1] |= occupied[:, 1:]
+    neighbours[:, :, 1:] |= occupied[:, :, :-1]
+    neighbours[:, :, :-1] |= occupied[:, :, 1:]
+    isolated = np.any(occupied & ~neighbours, axis=(1, 2)) & (occupied.sum(axis=(1, 2)) > 1)
+    ok = np.any((grids == H_ACT) | (grids == V_ACT), axis=(1, 2)) & ~isolated
+    for i in np.flatnonzero(ok):
+        ok[i] = is_connected(grids[i])
     return ok
 
 
