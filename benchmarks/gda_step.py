@@ -23,19 +23,16 @@ from torch.func import functional_call, grad_and_value
 
 from gdabench.designers.gda.backprop import FastUNet
 from gdabench.designers.gda.model import UNet, reset_parameters
-from gdabench.designers.gda.training import FlatAdamW
 
 SIZES = [5] * 12 + [4]
 
 
-def handmade(compiled: bool, torch_adamw: bool = False) -> Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor]:
+def handmade(compiled: bool) -> Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor]:
+    """gda's step: the hand-derived backward over flat buffers and one fused AdamW update."""
     model = UNet()
     net = FastUNet(model, (5, 5), torch.device("cpu"))
-    if torch_adamw:
-        net.params.flat.grad = net.params.grad
-        opt = torch.optim.AdamW([net.params.flat], lr=1e-3, weight_decay=0.01, fused=True)
-    else:
-        opt = FlatAdamW(net.params.flat, net.params.grad, lr=1e-3, weight_decay=0.01)
+    net.params.flat.grad = net.params.grad
+    opt = torch.optim.AdamW([net.params.flat], lr=1e-3, weight_decay=0.01, fused=True)
     steps: dict[int, Callable] = {}
 
     def step(x: torch.Tensor, f: torch.Tensor, n: torch.Tensor) -> torch.Tensor:
@@ -123,7 +120,6 @@ def main() -> None:
     noise = torch.randn(64, 1, 5, 5, generator=gen)
     variants = {
         "hand-derived, compiled (default)": handmade(True),
-        "hand-derived, compiled; torch.optim.AdamW(fused=True)": handmade(True, torch_adamw=True),
         "hand-derived, eager": handmade(False),
     }
     if not args.only_handmade:
