@@ -136,8 +136,9 @@ def test_a_training_step_is_the_textbook_step_on_the_module():
     ours = torch.cat([p.detach().flatten() for p in trainer.model.parameters()])
     theirs = torch.cat([p.detach().flatten() for p in reference.parameters()])
     # Adam scales every gradient to a step of about lr, so where a gradient is zero but for rounding
-    # (e.g. the attention's key bias) the two disagree by up to a step; everywhere else they agree
-    close = torch.isclose(ours, theirs, atol=1e-7, rtol=1e-6)
+    # (e.g. the attention's key bias) the two disagree by up to a step; everywhere else they agree to
+    # float32 rounding, which differs with the CPU's kernels (AVX2 machines: 0.4% of weights beyond 1e-6 relative)
+    close = torch.isclose(ours, theirs, atol=1e-6, rtol=1e-5)
     assert close.float().mean() > 0.998 and (ours - theirs).abs().max() < 3e-3
     assert (trainer.flat - start).abs().max() > 1e-3  # three steps moved the weights
 
