@@ -7,12 +7,14 @@ are pooled by designer label before summarising, so every row covers all of its 
 
 Columns: seeds that reached the threshold, median evaluations to reach it (runs that never
 did count as "not reached", so the median is not flattered), best reward (median and range),
-and the median wall time of a run.
+and the median wall time of a run.  Only finished trials count: the rows of a trial still running
+(or cut short) are left out and said so on stderr.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 
 import pandas as pd
 
@@ -20,12 +22,22 @@ from gdabench.results import RunDirectory
 from gdabench.report.summary import summarize
 
 
+def finished_rows(run: RunDirectory) -> pd.DataFrame:
+    """The evaluations of ``run``'s finished trials."""
+    rows = run.load_evaluations()
+    finished = run.finished_trials()
+    keep = [(e, d, int(s)) in finished for e, d, s in zip(rows["env"], rows["designer"], rows["seed"])]
+    for key in sorted(set(zip(rows["env"], rows["designer"], rows["seed"])) - finished):
+        print(f"left out: {key[1]} on {key[0]}, seed {key[2]} (not finished)", file=sys.stderr)
+    return rows[keep]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("runs", nargs="+", help="run directories written by gdabench compare/run")
     parser.add_argument("--threshold", type=float, default=100.0, help="reward whose first reach is counted (default: 100)")
     args = parser.parse_args()
-    frame = pd.concat([RunDirectory.open(path).load_evaluations() for path in args.runs], ignore_index=True)
+    frame = pd.concat([finished_rows(RunDirectory.open(path)) for path in args.runs], ignore_index=True)
     table = summarize(frame, args.threshold)
     print(f"| designer | seeds | reaching {args.threshold:g} | evaluations to reach it (median) | best reward, median (range) | wall s per run (median) |")
     print("|---|---|---|---|---|---|")
