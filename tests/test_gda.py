@@ -201,7 +201,10 @@ def test_dataset_repeats_survivors_like_the_author():
 
 @pytest.fixture(scope="module")
 def one_body_model():
-    """The thesis's experiment of section 4.5: train on copies of a single body, then sample."""
+    """The thesis's experiment of section 4.5: train on copies of a single body, then sample.
+
+    Its tests share an xdist group, so it is trained once however the suite is split.
+    """
     schedule = make_schedule("linear", 500, 1e-4, 0.02)
     trainer = Trainer(schedule)
     generator = torch.Generator().manual_seed(0)
@@ -212,12 +215,14 @@ def one_body_model():
     return result, samples, trainer
 
 
+@pytest.mark.xdist_group("one_body_model")
 def test_loss_on_copies_of_one_body_falls_below_0_15(one_body_model):
     result, *_ = one_body_model
     assert result.epochs == EPOCHS_ONE_BODY
     assert result.loss < 0.15  # the thesis reports convergence at about 0.1
 
 
+@pytest.mark.xdist_group("one_body_model")
 def test_samples_after_training_resemble_the_body(one_body_model):
     _, samples, _ = one_body_model
     distance = (samples != TARGET.voxels).sum(axis=(1, 2))
@@ -260,6 +265,7 @@ def test_samplers_recover_the_data_point_given_the_exact_noise_predictor(schedul
         assert all(np.array_equal(d, TARGET.voxels) for d in decode(x[:, 0].numpy()))
 
 
+@pytest.mark.xdist_group("one_body_model")
 def test_ddim_sampler_draws_from_the_same_trained_model(one_body_model):
     *_, trainer = one_body_model
     generator = torch.Generator().manual_seed(1)
@@ -575,6 +581,7 @@ def test_denoising_from_a_partly_noised_body_recovers_it_given_the_exact_noise_p
         assert all(np.array_equal(d, TARGET.voxels) for d in decode(denoise(Oracle(x0, schedule), schedule, x, t, generator)[:, 0].numpy()))
 
 
+@pytest.mark.xdist_group("one_body_model")
 def test_ancestral_sampling_is_denoising_from_pure_noise(one_body_model):
     *_, trainer = one_body_model
     schedule = trainer.schedule

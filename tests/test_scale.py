@@ -57,6 +57,7 @@ def _noisy_expected(frame: pd.DataFrame) -> pd.Series:
     return frame.apply(reward, axis=1)
 
 
+@pytest.mark.xdist_group("ray_cluster")  # one Ray instance per module, not one per xdist worker
 def test_same_table_with_every_executor_on_an_environment_that_uses_its_seed(tmp_path, reg, ray_cluster):
     """Serial, trials in parallel, evaluations in parallel, Ray: one table, rewards from (seed, body) alone."""
     exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), envs=PluginChoice("noisy"), budget=75, seeds=(0, 1))
@@ -129,6 +130,7 @@ def test_faults_are_recorded_and_the_run_goes_on(tmp_path, reg, faulty_experimen
     pd.testing.assert_frame_equal(table(tmp_path / "serial", drop=["pid"]), table(tmp_path / "process", drop=["pid"]))
 
 
+@pytest.mark.xdist_group("ray_cluster")  # one Ray instance per module, not one per xdist worker
 def test_faults_on_ray(tmp_path, reg, faulty_experiment, ray_cluster):
     exp, first = faulty_experiment
     # Ray notices a dead actor in about a second, later on a loaded machine: a longer timeout keeps
