@@ -18,8 +18,8 @@ as markdown:
   per-seed gaps, paired by seed (a seed fixes a run's first generation: ga, gda, gda-fast and
   random start from the same bodies), Holm-corrected over each designer's comparisons, and
   Vargha-Delaney's A12 = P(designer's gap < baseline's gap);
-* whether the designer's lead over the baseline changes from the smallest to the largest shape
-  (Wilcoxon on the per-seed differences of gaps, smallest against largest shape);
+* whether the designer's lead over the baseline changes from the smallest shape to each larger one
+  (Wilcoxon on the per-seed differences of gaps, the larger shape against the smallest);
 * time per generation (designer time, and gda's training and sampling seconds) at each shape.
 
 ``--plot`` saves the gap against the number of voxels, one panel per environment; ``--csv``
@@ -209,7 +209,7 @@ def paired(rows: pd.DataFrame, env: str, shape: str, a: str, b: str) -> pd.DataF
 
 def comparisons(rows: pd.DataFrame, envs: Sequence[PluginChoice], designers: Sequence[PluginChoice], baseline: str, alpha: float = 0.05) -> pd.DataFrame:
     """Each designer against the baseline per (env, shape), and the change of that difference
-    from the smallest to the largest shape; Holm over each designer's rows."""
+    from the smallest shape to each larger one; Holm over each designer's rows."""
     shapes = [s for _, s in sorted({(v, s) for v, s in zip(rows["voxels"], rows["shape"])})]
     out = []
     for env in [e.label for e in envs]:
@@ -224,15 +224,15 @@ def comparisons(rows: pd.DataFrame, envs: Sequence[PluginChoice], designers: Seq
                     "difference": float((pair[d] - pair[baseline]).median()),
                     "p": p, "a12": a12(-pair[d], -pair[baseline]),  # P(designer's gap < baseline's)
                 })
-            if len(shapes) >= 2:
-                small, large = paired(rows, env, shapes[0], d, baseline), paired(rows, env, shapes[-1], d, baseline)
+            for shape in shapes[1:]:
+                small, large = paired(rows, env, shapes[0], d, baseline), paired(rows, env, shape, d, baseline)
                 common = small.index.intersection(large.index)
                 if len(common):
                     lead_small = small.loc[common, d] - small.loc[common, baseline]
                     lead_large = large.loc[common, d] - large.loc[common, baseline]
                     name, stat, p = test_pair(lead_large, lead_small, paired=True)
                     out.append({
-                        "env": env, "designer": d, "what": f"{shapes[-1]} vs {shapes[0]}", "pairs": len(common), "test": name,
+                        "env": env, "designer": d, "what": f"{shape} vs {shapes[0]}", "pairs": len(common), "test": name,
                         "difference": float((lead_large - lead_small).median()), "p": p,
                         "a12": a12(-lead_large, -lead_small),  # P(the gap difference is smaller at the large shape)
                     })

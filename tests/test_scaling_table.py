@@ -78,20 +78,21 @@ def test_comparisons_pair_by_seed_orient_a12_and_correct_per_designer(table):
 
     seeds = range(8)
     rows = []
-    for shape, voxels in (("3x3", 9), ("6x6", 36)):
+    for shape, voxels, loss in (("3x3", 9, 0.0), ("6x6", 36, 0.1), ("9x9", 81, 0.2)):
         for s in seeds:
-            ga = 0.2 + 0.01 * s + (0.1 if shape == "6x6" else 0.0)  # the baseline loses ground on the larger shape
+            ga = 0.2 + 0.01 * s + loss  # the baseline loses ground on the larger shapes
             rows.append({"env": "e", "shape": shape, "voxels": voxels, "seed": s, "designer": "ga", "gap": ga})
             rows.append({"env": "e", "shape": shape, "voxels": voxels, "seed": s, "designer": "better", "gap": ga - 0.05 - 0.001 * s})
             rows.append({"env": "e", "shape": shape, "voxels": voxels, "seed": s, "designer": "same", "gap": ga + (0.001 if s % 2 else -0.001)})
     frame = pd.DataFrame(rows)
     tests = table.comparisons(frame, PluginChoice.parse_list("e"), PluginChoice.parse_list("ga,better,same"), "ga")
-    assert list(tests["what"]) == ["3x3", "6x6", "6x6 vs 3x3"] * 2
+    assert list(tests["what"]) == ["3x3", "6x6", "9x9", "6x6 vs 3x3", "9x9 vs 3x3"] * 2
     better = tests[tests["designer"] == "better"].set_index("what")
     assert better.loc["3x3", "difference"] == pytest.approx(-0.0535)  # median of -(0.05 + 0.001 s)
     assert better.loc["3x3", "a12"] > 0.9  # A12 over all runs, as the project's: the seeds' spread overlaps a little
     assert better.loc["3x3", "p"] == pytest.approx(2 / 2**8)  # paired: every seed closer, the smallest exact p
-    assert better.loc["6x6 vs 3x3", "difference"] == pytest.approx(0.0)  # the same lead at both sizes
+    assert better.loc["6x6 vs 3x3", "difference"] == pytest.approx(0.0)  # the same lead at every size
+    assert better.loc["9x9 vs 3x3", "difference"] == pytest.approx(0.0)
     same = tests[tests["designer"] == "same"]
     assert (same["p"] > 0.5).all() and (same["magnitude"] != "large").all()
     for _, family in tests.groupby("designer"):  # Holm within each designer's rows, not across designers
