@@ -24,9 +24,7 @@ from gdabench.results import RunDirectory
 from processes import cli, error_lines, table
 
 ARGS = ["compare", "-d", "ga,random", "--env", "faulty", "--budget", "60", "--population", "10", "--seeds", "0,1", "-q", "--no-report"]
-# 9 s per trial: a run must still be going when a test acts on it, even with other processes
-# starting slowly beside it (at 1.8 s per trial a loaded CI machine saw Ctrl-C land after the last trial)
-SLOW = {"GDABENCH_FAULTY_DELAY": "0.15"}
+SLOW = {"GDABENCH_FAULTY_DELAY": "0.03"}
 
 
 @pytest.fixture(scope="module")
