@@ -224,8 +224,9 @@ def comparisons(rows: pd.DataFrame, envs: Sequence[PluginChoice], designers: Seq
                     "difference": float((pair[d] - pair[baseline]).median()),
                     "p": p, "a12": a12(-pair[d], -pair[baseline]),  # P(designer's gap < baseline's)
                 })
+            small = paired(rows, env, shapes[0], d, baseline)
             for shape in shapes[1:]:
-                small, large = paired(rows, env, shapes[0], d, baseline), paired(rows, env, shape, d, baseline)
+                large = paired(rows, env, shape, d, baseline)
                 common = small.index.intersection(large.index)
                 if len(common):
                     lead_small = small.loc[common, d] - small.loc[common, baseline]
