@@ -76,7 +76,6 @@ class _Guard:
         if self.run_dir is not None and (self.run_dir / "run.json").exists():
             hint = f" (results so far are in {self.run_dir}; continue with: gdabench compare --resume {self.run_dir})"
         if isinstance(exc, KeyboardInterrupt):
-            signal.signal(signal.SIGINT, signal.SIG_IGN)  # one more Ctrl-C must not cut the exit short
             raise _fail(f"{'terminated' if isinstance(exc, Terminated) else 'interrupted'}{hint}", 143 if isinstance(exc, Terminated) else 130)
         if isinstance(exc, RunFailure):
             raise _fail(f"{exc}{hint}", 1)
@@ -475,8 +474,16 @@ def export(
         console.print(escape(f"{format}: {export_run(run_dir, format, out)}"), highlight=False, soft_wrap=True)
 
 
+def _interrupt_once(signum: int, frame: Any) -> None:
+    """The first Ctrl-C interrupts; more of them cannot cut short the clean-up and exit it starts."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    raise KeyboardInterrupt
+
+
 def main() -> None:
     """The console script: usage errors become one ``error:`` line too (exit 2)."""
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        signal.signal(signal.SIGINT, _interrupt_once)
     command = typer.main.get_command(app)
     try:
         code = command.main(prog_name="gdabench", standalone_mode=False)

@@ -106,9 +106,9 @@ def compare(
             summary.to_csv(run.path / SUMMARY, index=False)
             run.update_meta(status="complete", finished=utc_now(), failed_trials=[])
     except KeyboardInterrupt as exc:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C must not cut the clean-up short
-        run.update_meta(status="interrupted", error="terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted by the user")
-        listener.run_finished(run.path, "interrupted", None)
+        with _uninterrupted():
+            run.update_meta(status="interrupted", error="terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted by the user")
+            listener.run_finished(run.path, "interrupted", None)
         raise
     except BaseException as exc:
         error = RunFailure(f"no space left on the device of {run.path}") if no_space(exc) else exc

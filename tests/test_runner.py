@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import signal
 from dataclasses import replace
 
 import numpy as np
@@ -178,6 +179,16 @@ def test_resume_after_a_crash_mid_trial_gives_the_full_table(tmp_path):
     a = resumed[cols].sort_values(key).reset_index(drop=True)
     b = full[cols].sort_values(key).reset_index(drop=True)
     pd.testing.assert_frame_equal(a, b)
+
+
+def test_an_interrupted_compare_gives_the_caller_its_signal_handlers_back(tmp_path):
+    """A notebook that interrupts one compare keeps its Ctrl-C; a subprocess it starts later inherits it too."""
+    exp = Experiment(designers=(PluginChoice("random"),), envs=PluginChoice("simple"), budget=100, seeds=(0,))
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    with pytest.raises(KeyboardInterrupt):
+        compare(exp, tmp_path / "run", listener=KillAt("random", 0, 1, error=KeyboardInterrupt()))
+    assert {s: signal.getsignal(s) for s in before} == before
+    assert RunDirectory.open(tmp_path / "run").meta["status"] == "interrupted"
 
 
 def test_same_command_same_table(tmp_path):
