@@ -1,9 +1,10 @@
-"""Fixtures shared by the tests that drive real processes: the faulty plugin, installed once."""
+"""Fixtures shared by the tests: the faulty plugin, installed once; a guard on the signal handlers."""
 
 from __future__ import annotations
 
 import importlib
 import shutil
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -31,3 +32,13 @@ def reg(faulty_site, monkeypatch) -> Registry:
     """A registry with the built-ins and the faulty plugin, importable by worker processes too."""
     monkeypatch.syspath_prepend(str(faulty_site))
     return Registry(entry_points=False, extra_plugins={"faulty": importlib.import_module("gdabench_faulty.plugin")})
+
+
+@pytest.fixture(autouse=True)
+def signal_handlers_left_as_found():
+    """A test that changes a handler changes it for every later test in its process, and for the
+    processes those start (an ignored SIGINT is inherited): the reliability tests' Ctrl-C then does nothing."""
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    yield
+    after = {s: signal.getsignal(s) for s in before}
+    assert after == before, f"the test changed signal handlers: {before} -> {after}"
