@@ -72,7 +72,6 @@ class NKLandscape(Landscape):
         self.k = self._int_param("k", k, 0, min(n - 1, MAX_K))
         self.table_seed = self._int_param("table_seed", table_seed, 0)
         self._keys = np.random.SeedSequence(self.table_seed).generate_state(n, dtype=np.uint64)
-        self._place = A ** np.arange(self.k, -1, -1, dtype=np.int64)  # oldest digit first
 
     # -- reward ------------------------------------------------------------------------------------
     def contributions(self, voxels: np.ndarray) -> np.ndarray:

@@ -105,10 +105,6 @@ class CppnNeat(Designer):
         """The body a genome of this designer paints (e.g. ``designer.body_of(designer.best_genome)``)."""
         return Body(cppn_voxels(genome, self._config.genome_config, self.shape))
 
-    @property
-    def species_count(self) -> int:
-        return len(self._species.species)
-
     # -- Evolution Gym's constraint step ---------------------------------------------------------
     def _fill_population(self) -> tuple[list[tuple[int, Body]], set[int], int]:
         """Keep genomes with new valid bodies; replace the others by fresh random genomes."""

@@ -311,7 +311,7 @@ class FastUNet:
         # bilinear upsampling (align_corners) is a fixed linear map from the low to the full grid
         basis = torch.eye(low[0] * low[1], device=device).view(-1, 1, *low)
         self.upsample = F.interpolate(basis, size=size, mode="bilinear", align_corners=True).view(low[0] * low[1], -1).t().contiguous()
-        self.cells, self.low_cells = size[0] * size[1], low[0] * low[1]
+        self.cells = size[0] * size[1]
 
     def prepare(self, batch: int) -> None:
         """Build every convolution's neighbour index for ``batch`` bodies ahead of compiling.
