@@ -8,8 +8,9 @@ grow with the voxel count: by default 40 evaluations and 1 body per voxel, so a 
 number of generations at every shape (40 for designers that evaluate a whole population each
 generation): 25 x 40 = 1,000 evaluations at 5x5, 64 x 40 = 2,560 at 8x8, 144 x 40 = 5,760 at 12x12.
 
-One suite run per (designer, shape), ``<root>/<HxW>/<designer>``, unless a complete one exists
-(designers, shapes and seeds can be added later; an interrupted run is resumed).  Then it prints,
+One suite run per (designer, shape), ``<root>/<HxW>/<designer>``, unless a complete one exists; an
+interrupted run is resumed. Designers and shapes can be added later, and seeds too: the seeds no run
+holds yet run into ``<designer>.seeds-<seeds>`` beside the first run, and the tables read both.  Then it prints,
 as markdown:
 
 * the normalised gap to the optimum, ``(optimum - best) / optimum`` (0: optimum found), median and
@@ -36,8 +37,10 @@ Each run is ``gdabench compare -d DESIGNER --env target,nk[k=4] --shape HxW --po
 from __future__ import annotations
 
 import argparse
+import glob
 import math
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Sequence
 
@@ -69,19 +72,41 @@ def scaled(shape: tuple[int, int], evals_per_voxel: int, bodies_per_voxel: float
     return population, max(population, voxels * evals_per_voxel)
 
 
+def seeds_text(seeds: Sequence[int]) -> str:
+    """Seeds as runs of consecutive numbers, for a directory name: (3, 4, 5, 8) -> '3-5_8'."""
+    groups: list[list[int]] = []
+    for seed in sorted(seeds):
+        if groups and seed == groups[-1][-1] + 1:
+            groups[-1].append(seed)
+        else:
+            groups.append([seed])
+    return "_".join(str(g[0]) if len(g) == 1 else f"{g[0]}-{g[-1]}" for g in groups)
+
+
+def run_dirs(out: Path) -> list[Path]:
+    """A designer's run at one shape, then the runs that added seeds to it (``<designer>.seeds-<seeds>``)."""
+    return [d for d in [out, *sorted(out.parent.glob(f"{glob.escape(out.name)}.seeds-*"))] if (d / "run.json").exists()]
+
+
 def ensure_run(out: Path, experiment: Experiment, execution: Execution) -> None:
-    """Run (or resume) one designer's suite run at one shape unless a complete one exists."""
+    """Run the seeds of ``experiment`` that no run of this designer and shape holds yet (seeds asked
+    for later go to a run of their own beside the first), and resume the interrupted runs asked for."""
     label = f"{experiment.designers[0].label} at {shape_text(experiment.shape)}"
-    if (out / "run.json").exists():
-        run = RunDirectory.open(out)
-        if Experiment.from_json(run.meta["config"]) != experiment:
-            raise ConfigError(f"{out} holds a run with other settings (environments, budget, population or seeds); use another --root")
-        if run.meta.get("status") != "complete":
-            print(f"resuming {label} in {out}", file=sys.stderr)
-            compare(experiment, out, resume=True, execution=execution)
-    else:
-        print(f"running {label} into {out}", file=sys.stderr)
-        compare(experiment, out, execution=execution, command=sys.argv)
+    held: set[int] = set()
+    for path in run_dirs(out):
+        run = RunDirectory.open(path)
+        config = Experiment.from_json(run.meta["config"])
+        if replace(config, seeds=experiment.seeds) != experiment:
+            raise ConfigError(f"{path} holds a run with other settings (environments, budget or population); use another --root")
+        if run.meta.get("status") != "complete" and set(config.seeds) & set(experiment.seeds):
+            print(f"resuming {label} in {path}", file=sys.stderr)
+            compare(None, path, resume=True, execution=execution)
+        held.update(config.seeds)
+    missing = tuple(seed for seed in experiment.seeds if seed not in held)
+    if missing:
+        path = out if not held else out.with_name(f"{out.name}.seeds-{seeds_text(missing)}")
+        print(f"running {label} (seeds {seeds_text(missing)}) into {path}", file=sys.stderr)
+        compare(replace(experiment, seeds=missing), path, execution=execution, command=sys.argv)
 
 
 def optima(run: RunDirectory) -> dict[str, tuple[float | None, str]]:
@@ -143,9 +168,7 @@ def collect(root: Path, designers: Sequence[PluginChoice], shapes: Sequence[tupl
     frames = []
     for shape in shapes:
         for d in designers:
-            out = root / shape_text(shape) / file_name(d.label)
-            if (out / "run.json").exists():
-                frames.append(seed_rows(out, shape))
+            frames.extend(seed_rows(out, shape) for out in run_dirs(root / shape_text(shape) / file_name(d.label)))
     frames = [f for f in frames if not f.empty]
     if not frames:
         return pd.DataFrame()

@@ -58,6 +58,26 @@ def test_one_run_per_designer_and_shape_gaps_tests_and_plot(table, tmp_path, cap
     assert "Against ga" not in capsys.readouterr().out  # nothing to compare the baseline with
 
 
+def test_seeds_added_later_run_beside_the_first_run_and_give_the_table_of_one_run(table, tmp_path, capsys):
+    base = ["--designers", "random,ga", "--envs", "target", "--shapes", "3x3", "--evals-per-voxel", "4"]
+    later, once = tmp_path / "later", tmp_path / "once"
+    assert table.main([*base, "--seeds", "0", "--root", str(later)]) == 0
+    capsys.readouterr()
+    assert table.main([*base, "--seeds", "0..2,5", "--root", str(later), "--csv", str(tmp_path / "later.csv")]) == 0
+    added = capsys.readouterr().out
+    assert sorted(p.name for p in (later / "3x3").iterdir()) == ["ga", "ga.seeds-1-2_5", "random", "random.seeds-1-2_5"]
+    stamp = (later / "3x3" / "ga.seeds-1-2_5" / "evaluations.parquet").stat().st_mtime_ns
+    assert table.main([*base, "--seeds", "0..2,5", "--root", str(later)]) == 0  # nothing left to run
+    assert (later / "3x3" / "ga.seeds-1-2_5" / "evaluations.parquet").stat().st_mtime_ns == stamp
+    assert table.main([*base, "--seeds", "0..2,5", "--root", str(once), "--csv", str(tmp_path / "once.csv")]) == 0
+    def tests(out):  # the paired comparisons (the gap table's wall times differ between runs)
+        return out[out.index("### Against"):out.index("### Time per generation")]
+    assert tests(capsys.readouterr().out) == tests(added)
+    rows = pd.read_csv(tmp_path / "later.csv")
+    assert (rows["seeds"] == 4).all() and (rows["seed_list"] == "0,1,2,5").all()
+    pd.testing.assert_frame_equal(rows.drop(columns="wall_s_median"), pd.read_csv(tmp_path / "once.csv").drop(columns="wall_s_median"))
+
+
 def test_bad_input_is_one_error_line(table, tmp_path, capsys):
     base = ["--envs", "target", "--seeds", "0", "--root", str(tmp_path)]
     assert table.main(["--designers", "random", "--shapes", "3x3", "--evals-per-voxel", "4", *base]) == 0
