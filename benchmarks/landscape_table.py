@@ -1,8 +1,8 @@
 """Designers x analytic landscapes: the comparison table of docs/benchmarks/landscapes.md, as markdown.
 
 Each designer runs the ``landscapes`` suite (or the environments given with ``--envs``) as one
-suite run, ``<root>/<designer>``, unless a complete one exists (designers can be added later
-without redoing the others; an interrupted run is resumed).  Then one table row per (environment,
+suite run, ``<root>/<designer>``, unless a complete one exists (designers and seeds can be added
+later without redoing the others, see ``suite_runs.py``; an interrupted run is resumed).  Then one table row per (environment,
 designer): seeds that reached the environment's optimum, median evaluations to reach it (a seed
 that never reached it counts as infinitely many, so the median says "not reached" when half the
 seeds or more missed it), median best reward with its range, and median wall time of a seed.
@@ -25,36 +25,23 @@ import pandas as pd
 
 from gdabench import Experiment, PluginChoice, RunDirectory
 from gdabench.config import parse_seeds
-from gdabench.errors import ConfigError, GdabenchError
+from gdabench.errors import GdabenchError
 from gdabench.plan import Plan, file_name
 from gdabench.plugins import registry
 from gdabench.report.summary import summarize, thresholds
-from gdabench.runner import compare
+
+from suite_runs import ensure_runs, run_dirs
 
 
-def ensure_run(root: Path, experiment: Experiment) -> Path:
-    """Run (or resume) one designer's suite run unless a complete one exists; its directory."""
-    out = root / file_name(experiment.designers[0].label)
-    if (out / "run.json").exists():
-        run = RunDirectory.open(out)
-        if Experiment.from_json(run.meta["config"]) != experiment:
-            raise ConfigError(f"{out} holds a run with other settings (environments, budget, population or seeds); use another --root")
-        if run.meta.get("status") != "complete":
-            print(f"resuming {experiment.designers[0].label} in {out}", file=sys.stderr)
-            compare(experiment, out, resume=True)
-    else:
-        print(f"running {experiment.designers[0].label} into {out}", file=sys.stderr)
-        compare(experiment, out, command=sys.argv)
-    return out
-
-
-def table_rows(runs: list[Path], envs: list[PluginChoice]) -> pd.DataFrame:
-    """One summary row per (env, designer), environments in the order given."""
+def table_rows(designers: list[list[Path]], envs: list[PluginChoice]) -> pd.DataFrame:
+    """One summary row per (env, designer) over all of a designer's runs, environments in the order given."""
     frames = []
-    for out in runs:
-        if (out / "run.json").exists():
-            run = RunDirectory.open(out)
-            frames.append(summarize(run.load_evaluations(), thresholds(run.meta)).assign(status=run.meta.get("status")))
+    for dirs in designers:
+        runs = [RunDirectory.open(d) for d in dirs]
+        if runs:
+            status = next((r.meta.get("status") for r in runs if r.meta.get("status") != "complete"), "complete")
+            evaluations = pd.concat([r.load_evaluations() for r in runs], ignore_index=True)
+            frames.append(summarize(evaluations, thresholds(runs[0].meta)).assign(status=status))
     if not frames:
         return pd.DataFrame()
     rows = pd.concat(frames, ignore_index=True)
@@ -106,8 +93,8 @@ def main(argv: list[str] | None = None) -> int:
             for experiment in experiments:  # check every name and parameter before spending time on runs
                 Plan.resolve(experiment)
             for experiment in experiments:
-                ensure_run(args.root, experiment)
-        rows = table_rows([args.root / file_name(d.label) for d in designers], envs)
+                ensure_runs(args.root / file_name(experiment.designers[0].label), experiment)
+        rows = table_rows([run_dirs(args.root / file_name(d.label)) for d in designers], envs)
     except GdabenchError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -37,10 +37,8 @@ Each run is ``gdabench compare -d DESIGNER --env target,nk[k=4] --shape HxW --po
 from __future__ import annotations
 
 import argparse
-import glob
 import math
 import sys
-from dataclasses import replace
 from pathlib import Path
 from typing import Sequence
 
@@ -55,7 +53,7 @@ from gdabench.execution.options import Execution
 from gdabench.plan import Plan, file_name
 from gdabench.report.pairwise import a12, holm, magnitude, test_pair
 from gdabench.report.summary import per_run, thresholds
-from gdabench.runner import compare
+from suite_runs import ensure_runs, run_dirs
 
 DEFAULT_ENVS = "target,nk[k=4]"
 DEFAULT_SIZES = "5x5,8x8,12x12"
@@ -70,43 +68,6 @@ def scaled(shape: tuple[int, int], evals_per_voxel: int, bodies_per_voxel: float
     voxels = shape[0] * shape[1]
     population = max(2, round(voxels * bodies_per_voxel))
     return population, max(population, voxels * evals_per_voxel)
-
-
-def seeds_text(seeds: Sequence[int]) -> str:
-    """Seeds as runs of consecutive numbers, for a directory name: (3, 4, 5, 8) -> '3-5_8'."""
-    groups: list[list[int]] = []
-    for seed in sorted(seeds):
-        if groups and seed == groups[-1][-1] + 1:
-            groups[-1].append(seed)
-        else:
-            groups.append([seed])
-    return "_".join(str(g[0]) if len(g) == 1 else f"{g[0]}-{g[-1]}" for g in groups)
-
-
-def run_dirs(out: Path) -> list[Path]:
-    """A designer's run at one shape, then the runs that added seeds to it (``<designer>.seeds-<seeds>``)."""
-    return [d for d in [out, *sorted(out.parent.glob(f"{glob.escape(out.name)}.seeds-*"))] if (d / "run.json").exists()]
-
-
-def ensure_run(out: Path, experiment: Experiment, execution: Execution) -> None:
-    """Run the seeds of ``experiment`` that no run of this designer and shape holds yet (seeds asked
-    for later go to a run of their own beside the first), and resume the interrupted runs asked for."""
-    label = f"{experiment.designers[0].label} at {shape_text(experiment.shape)}"
-    held: set[int] = set()
-    for path in run_dirs(out):
-        run = RunDirectory.open(path)
-        config = Experiment.from_json(run.meta["config"])
-        if replace(config, seeds=experiment.seeds) != experiment:
-            raise ConfigError(f"{path} holds a run with other settings (environments, budget or population); use another --root")
-        if run.meta.get("status") != "complete" and set(config.seeds) & set(experiment.seeds):
-            print(f"resuming {label} in {path}", file=sys.stderr)
-            compare(None, path, resume=True, execution=execution)
-        held.update(config.seeds)
-    missing = tuple(seed for seed in experiment.seeds if seed not in held)
-    if missing:
-        path = out if not held else out.with_name(f"{out.name}.seeds-{seeds_text(missing)}")
-        print(f"running {label} (seeds {seeds_text(missing)}) into {path}", file=sys.stderr)
-        compare(replace(experiment, seeds=missing), path, execution=execution, command=sys.argv)
 
 
 def optima(run: RunDirectory) -> dict[str, tuple[float | None, str]]:
@@ -382,7 +343,7 @@ def main(argv: list[str] | None = None) -> int:
                     Plan.resolve(experiment)  # check every name and parameter before spending time on runs
                     runs.append((args.root / shape_text(shape) / file_name(d.label), experiment))
             for out, experiment in runs:
-                ensure_run(out, experiment, execution)
+                ensure_runs(out, experiment, execution, f"{experiment.designers[0].label} at {shape_text(experiment.shape)}")
         rows = collect(args.root, designers, shapes, envs)
     except GdabenchError as exc:
         print(f"error: {exc}", file=sys.stderr)

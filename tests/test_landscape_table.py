@@ -2,20 +2,13 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import pytest
-
-SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "landscape_table.py"
+from scripts import load_script
 
 
 @pytest.fixture(scope="module")
 def table():
-    spec = importlib.util.spec_from_file_location("landscape_table", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("landscape_table")
 
 
 def test_runs_each_pair_once_and_prints_a_row_per_pair(table, tmp_path, capsys):
@@ -31,6 +24,15 @@ def test_runs_each_pair_once_and_prints_a_row_per_pair(table, tmp_path, capsys):
     assert table.main([*args, "--root", str(tmp_path)]) == 0  # complete runs are not redone
     assert (tmp_path / "ga" / "evaluations.parquet").stat().st_mtime_ns == stamp
     assert capsys.readouterr().out == out
+
+
+def test_seeds_added_later_count_in_the_designers_row(table, tmp_path, capsys):
+    base = ["--designers", "random", "--envs", "target", "--budget", "20", "--population", "10", "--root", str(tmp_path)]
+    assert table.main([*base, "--seeds", "0"]) == 0
+    assert table.main([*base, "--seeds", "0..2"]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["random", "random.seeds-1-2"]
+    row = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| target")][-1]
+    assert row.split(" | ")[3] == "0/3"  # seeds at optimum, out of all three seeds
 
 
 def test_refuses_to_mix_settings_and_reports_unknown_designers(table, tmp_path, capsys):

@@ -2,21 +2,14 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import pandas as pd
 import pytest
-
-SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "scaling_table.py"
+from scripts import BENCHMARKS, load_script
 
 
 @pytest.fixture(scope="module")
 def table():
-    spec = importlib.util.spec_from_file_location("scaling_table", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("scaling_table")
 
 
 def test_budget_and_population_follow_the_voxels(table):
@@ -123,7 +116,7 @@ def test_the_committed_experiment_follows_the_scripts_rule(table):
     from gdabench.cli import RunOptions
     from gdabench.experiment_file import load
 
-    experiment = RunOptions().experiment("", load(SCRIPT.parents[1] / "experiments" / "scaling.toml"))
+    experiment = RunOptions().experiment("", load(BENCHMARKS.parent / "experiments" / "scaling.toml"))
     assert (experiment.population, experiment.budget) == table.scaled(experiment.shape, 40, 1.0)
     assert ",".join(e.label for e in experiment.envs) == table.DEFAULT_ENVS
     assert table.shape_text(experiment.shape) in table.DEFAULT_SIZES.split(",")

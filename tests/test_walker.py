@@ -20,7 +20,7 @@ from gdabench.runner import compare as run_experiment
 from gdabench import Body, ConfigError, Evaluation, make_controller, make_env
 from gdabench.controllers.open_loop import OpenLoop, Pattern
 from gdabench.envs.walker import ENV_ID, RETIRED_IDS, gym_env
-from gdabench.envs.walker.mesh import DIAGONAL, EDGE, build_mesh
+from gdabench.envs.walker.mesh import DIAGONAL, build_mesh
 from gdabench.envs.walker.render import save_gif
 from gdabench.envs.walker.sim import WalkerPhysics
 
