@@ -2,8 +2,8 @@
 
 Each designer runs the ``landscapes`` suite (or the environments given with ``--envs``) as one
 suite run, ``<root>/<designer>``, unless a complete one exists (designers and seeds can be added
-later without redoing the others, see ``suite_runs.py``; an interrupted run is resumed).  Then one table row per (environment,
-designer): seeds that reached the environment's optimum, median evaluations to reach it (a seed
+later without redoing the others, see ``suite_runs.py``; an interrupted run is resumed).  Then one
+table row per (environment, designer): seeds that reached the environment's optimum, median evaluations to reach it (a seed
 that never reached it counts as infinitely many, so the median says "not reached" when half the
 seeds or more missed it), median best reward with its range, and median wall time of a seed.
 
