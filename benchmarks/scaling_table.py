@@ -10,8 +10,7 @@ generation): 25 x 40 = 1,000 evaluations at 5x5, 64 x 40 = 2,560 at 8x8, 144 x 4
 
 One suite run per (designer, shape), ``<root>/<HxW>/<designer>``, unless a complete one exists; an
 interrupted run is resumed. Designers and shapes can be added later, and seeds too: the seeds no run
-holds yet run into ``<designer>.seeds-<seeds>`` beside the first run (``suite_runs.py``), and the
-tables read both.  Then it prints, as markdown:
+holds yet are added to the designer's run (``suite_runs.py``).  Then it prints, as markdown:
 
 * the normalised gap to the optimum, ``(optimum - best) / optimum`` (0: optimum found), median and
   interquartile range over seeds, per environment, shape and designer;

@@ -12,7 +12,7 @@ import inspect
 import os
 import signal
 import sys
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Annotated, Any, Callable, Optional, get_type_hints
 
@@ -33,7 +33,7 @@ from .results import RunDirectory
 from .loggers import make_logger
 from .experiment_file import ExperimentFile, load as load_experiment
 from .progress import ProgressDisplay
-from .runner import compare as run_compare, default_out_dir
+from .runner import compare as run_compare, default_out_dir, with_added_seeds
 
 try:  # typer >= 0.2x carries its own copy of click
     from typer._click import exceptions as click_errors
@@ -213,6 +213,18 @@ class RunOptions:
             stop_at_optimum=self._given("stop_at_optimum", base.stop_at_optimum),
         )
 
+    def resumed(self, designers: str, stored: Experiment) -> Experiment:
+        """The resumed run's experiment: ``stored``, with the seeds ``--seeds`` adds."""
+        fixed = sorted(RESUME_FIXED & self.explicit)
+        if designers and tuple(PluginChoice.parse_list(designers)) != stored.designers:
+            fixed.insert(0, "designers")
+        if fixed:
+            given = ", ".join(f"--{name.replace('_', '-')}" for name in fixed)
+            raise ConfigError(f"--resume takes the experiment from the run; {given} cannot change it (--seeds can add seeds)")
+        if not {"seeds", "repetitions"} & self.explicit:
+            return stored
+        return with_added_seeds(stored, replace(stored, seeds=tuple(parse_seeds(self.seeds, self.repetitions))))
+
     def execution(self, base: ExperimentFile) -> Execution:
         values = {**base.execution}
         for name in ("jobs", "workers", "executor", "timeout", "ray_address", "cache"):
@@ -222,6 +234,10 @@ class RunOptions:
             values["cache"] = str(values["cache"])
         return Execution(**values)
 
+
+#: options that define the experiment, which a resumed run takes from its directory
+RESUME_FIXED = frozenset({"config", "env", "suite", "controller", "budget", "population", "shape", "out",
+                          "designer_param", "env_param", "controller_param", "stop_at_optimum"})
 
 #: typer's view of RunOptions: option names and help, in the order --help lists them
 RUN_OPTIONS: dict[str, Any] = {
@@ -244,7 +260,7 @@ RUN_OPTIONS: dict[str, Any] = {
     "ray_address": _option("--ray-address", help="Ray cluster to join: auto or HOST:PORT (default: start a local one)."),
     "timeout": _option("--timeout", help="Seconds an evaluation may take before it is stopped and recorded as 'timeout'."),
     "cache": _option("--cache", help="Directory of an evaluation cache shared across runs (deterministic environments)."),
-    "resume": _option("--resume", help="Continue the run in this directory (its experiment is taken from it; execution options may change)."),
+    "resume": _option("--resume", help="Continue the run in this directory (its experiment is taken from it; execution options may change, --seeds may add seeds)."),
     "stop_at_optimum": _option("--stop-at-optimum", help="End each trial once it reaches the environment's optimum."),
     "log": _option("--log", help="Log each generation's figures to a tracker: tensorboard (writes RUN_DIR/tensorboard)."),
     "quiet": _option("--quiet", "-q", help="No progress display."),
@@ -298,7 +314,7 @@ def _execute(designers: str, options: RunOptions) -> None:
         done: dict[tuple[str, str, int], int] = {}
         if options.resume is not None:
             run = RunDirectory.open(options.resume)
-            experiment = Experiment.from_json(run.meta["config"], f"{run.path / 'run.json'}: config")
+            experiment = options.resumed(designers, Experiment.from_json(run.meta["config"], f"{run.path / 'run.json'}: config"))
             frame = run.load_evaluations()
             if len(frame):
                 done = {(str(k[0]), str(k[1]), int(k[2])): int(v) for k, v in frame.groupby(["env", "designer", "seed"])["n_evals"].max().items()}

@@ -127,6 +127,17 @@ def check_seed(seed: Any, what: str = "seed") -> int:
     return seed
 
 
+def format_seeds(seeds: Sequence[int]) -> str:
+    """Seeds as :func:`parse_seeds` reads them, runs of consecutive ones joined: (3, 4, 5, 8) -> '3..5,8'."""
+    groups: list[list[int]] = []
+    for seed in sorted(seeds):
+        if groups and seed == groups[-1][-1] + 1:
+            groups[-1].append(seed)
+        else:
+            groups.append([seed])
+    return ",".join(str(g[0]) if len(g) == 1 else f"{g[0]}..{g[-1]}" for g in groups)
+
+
 def parse_seeds(text: str | Sequence[int] | None, repetitions: int | None = None) -> list[int]:
     """``'0,1,2'``, ``'0..9'`` (inclusive) or ``'4'`` (that seed); ``repetitions=n`` means seeds 0..n-1."""
     if repetitions is not None:

@@ -19,12 +19,13 @@ import threading
 import time
 import uuid
 from collections import deque
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Iterator, Sequence
 
 from . import faults
-from .config import Experiment
-from .errors import GdabenchError, RunDirectoryError, RunFailure, Terminated, TrialError, one_line
+from .config import Experiment, format_seeds
+from .errors import ConfigError, GdabenchError, RunDirectoryError, RunFailure, Terminated, TrialError, one_line
 from .execution import cores
 from .execution.options import Execution, cpu_count
 from .events import Listeners, PluginHooks, RunListener
@@ -60,7 +61,7 @@ def _new_meta(plan: Plan, reg: Registry, command: Sequence[str] | None, executio
 
 
 def compare(
-    experiment: Experiment,
+    experiment: Experiment | None,
     out: str | Path | None = None,
     *,
     resume: bool = False,
@@ -74,6 +75,8 @@ def compare(
     Everything is checked before the directory is created.  On failure the directory's
     ``run.json`` says ``failed`` (or ``interrupted``) with the error, and the run can be resumed
     with other execution options if wanted; the timeout defaults to the one it started with.
+    A resume takes the experiment from the directory; ``experiment`` may only add seeds to it
+    (even to a complete run), which run as if they had been in the run from the start.
     """
     reg = reg or registry()
     execution = execution or Execution()
@@ -83,14 +86,17 @@ def compare(
             raise RunDirectoryError("resume needs the run directory")
         run = RunDirectory.open(out)
         meta = run.meta
-        if meta.get("status") == "complete":
+        stored = Experiment.from_json(meta["config"], f"{run.path / 'run.json'}: config")
+        experiment = with_added_seeds(stored, experiment)
+        if meta.get("status") == "complete" and experiment == stored:
             return run
-        experiment = Experiment.from_json(meta["config"], f"{run.path / 'run.json'}: config")
         if execution.timeout is None and (meta.get("execution") or {}).get("timeout"):
             execution = Execution(**{**execution.to_json(), "timeout": meta["execution"]["timeout"]})
         plan = Plan.resolve(experiment, reg)
         run.lock()
-        run.update_meta(status="running", resumed=[*meta.get("resumed", []), {"at": utc_now(), **execution.to_json()}], error=None)
+        added = {"added_seeds": [s for s in experiment.seeds if s not in stored.seeds]} if experiment != stored else {}
+        run.update_meta(status="running", config=experiment.to_json(), error=None,
+                        resumed=[*meta.get("resumed", []), {"at": utc_now(), **execution.to_json(), **added}])
     else:
         plan = Plan.resolve(experiment, reg)
         out = Path(out) if out is not None else default_out_dir(experiment)
@@ -121,6 +127,23 @@ def compare(
         run.unlock()
     listener.run_finished(run.path, "complete", summary)
     return run
+
+
+def with_added_seeds(stored: Experiment, given: Experiment | None) -> Experiment:
+    """``stored`` with the seeds ``given`` adds after its own, so finished trials keep their rows.
+
+    A resume cannot change anything else, nor drop a seed: the table would mix two experiments.
+    """
+    if given is None or given == stored:
+        return stored
+    changed = [name for name in ("designers", "envs", "controller", "shape", "population", "budget", "stop_at_optimum")
+               if getattr(given, name) != getattr(stored, name)]
+    if changed:
+        raise ConfigError(f"a resumed run keeps its experiment ({', '.join(changed)} would change); only seeds can be added")
+    dropped = [s for s in stored.seeds if s not in given.seeds]
+    if dropped:
+        raise ConfigError(f"the run has seeds {format_seeds(stored.seeds)}; resuming can add seeds but not drop {format_seeds(dropped)}")
+    return replace(stored, seeds=stored.seeds + tuple(s for s in given.seeds if s not in stored.seeds))
 
 
 def _failure_line(plan: Plan, failures: dict[int, str]) -> str:

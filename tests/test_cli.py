@@ -144,6 +144,39 @@ def test_resume_continues_a_killed_run(tmp_path):
     assert not (tmp_path / "run" / "pending").exists() and not (tmp_path / "run" / "checkpoints").exists()
 
 
+def test_resume_adds_seeds_to_a_complete_run_as_if_they_had_been_there(tmp_path):
+    common = ("--designers", "ga,random", "--budget", "60", "--population", "10", "-q", "--no-report")
+    assert invoke("compare", *common, "--seeds", "0,1", "--out", str(tmp_path / "run")).exit_code == 0
+    before = pd.read_parquet(tmp_path / "run" / "evaluations.parquet")
+    result = invoke("compare", "--resume", str(tmp_path / "run"), "--seeds", "0..3", "-q", "--no-report")
+    assert result.exit_code == 0, result.stderr
+    assert invoke("compare", *common, "--seeds", "0..3", "--out", str(tmp_path / "ref")).exit_code == 0
+    columns = ["designer", "seed", "repetition", "generation", "body", "reward"]
+    added, reference = (pd.read_parquet(tmp_path / d / "evaluations.parquet")[columns] for d in ("run", "ref"))
+    pd.testing.assert_frame_equal(added, reference)
+    pd.testing.assert_frame_equal(added[added["seed"] < 2].reset_index(drop=True), before[columns])
+    meta = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert meta["status"] == "complete" and meta["config"]["seeds"] == [0, 1, 2, 3]
+    assert meta["resumed"][-1]["added_seeds"] == [2, 3]
+    summaries = [pd.read_csv(tmp_path / d / "summary.csv").filter(regex="^(?!wall_)") for d in ("run", "ref")]
+    pd.testing.assert_frame_equal(*summaries)
+
+
+@pytest.mark.parametrize(("extra", "fragment"), [
+    (("--budget", "80"), "--budget cannot change it"),
+    (("--designers", "ga"), "--designers cannot change it"),
+    (("--seeds", "1..3"), "resuming can add seeds but not drop 0"),
+])
+def test_resume_refuses_to_change_the_experiment_and_touches_nothing(tmp_path, extra, fragment):
+    assert invoke("compare", "--designers", "ga,random", "--budget", "60", "--population", "10", "--seeds", "0,1",
+                  "--out", str(tmp_path / "run"), "-q", "--no-report").exit_code == 0
+    files = {p: p.read_bytes() for p in (tmp_path / "run").rglob("*") if p.is_file()}
+    result = invoke("compare", "--resume", str(tmp_path / "run"), *extra, "-q")
+    lines = result.stderr.strip().splitlines()
+    assert result.exit_code == 2 and len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], result.stderr
+    assert {p: p.read_bytes() for p in (tmp_path / "run").rglob("*") if p.is_file()} == files
+
+
 def test_parse_seeds():
     assert parse_seeds("0,1,2") == [0, 1, 2] and parse_seeds("0..3") == [0, 1, 2, 3] and parse_seeds("4") == [4]
     assert parse_seeds(None) == [0] and parse_seeds(None, repetitions=3) == [0, 1, 2]

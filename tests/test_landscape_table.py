@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import json
+from dataclasses import replace
+
 import pytest
 from scripts import load_script
 
@@ -27,12 +30,18 @@ def test_runs_each_pair_once_and_prints_a_row_per_pair(table, tmp_path, capsys):
 
 
 def test_seeds_added_later_count_in_the_designers_row(table, tmp_path, capsys):
+    from gdabench import Experiment
+    from gdabench.runner import compare
+
     base = ["--designers", "random", "--envs", "target", "--budget", "20", "--population", "10", "--root", str(tmp_path)]
     assert table.main([*base, "--seeds", "0"]) == 0
-    assert table.main([*base, "--seeds", "0..2"]) == 0
+    first = Experiment.from_json(json.loads((tmp_path / "random" / "run.json").read_text())["config"])
+    compare(replace(first, seeds=(1, 2)), tmp_path / "random.seeds-1-2")  # where earlier versions put added seeds
+    assert table.main([*base, "--seeds", "0..3"]) == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["random", "random.seeds-1-2"]
+    assert json.loads((tmp_path / "random" / "run.json").read_text())["config"]["seeds"] == [0, 3]
     row = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| target")][-1]
-    assert row.split(" | ")[3] == "0/3"  # seeds at optimum, out of all three seeds
+    assert row.split(" | ")[3] == "0/4"  # seeds at optimum, out of all four seeds
 
 
 def test_refuses_to_mix_settings_and_reports_unknown_designers(table, tmp_path, capsys):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import pandas as pd
 import pytest
 from scripts import BENCHMARKS, load_script
@@ -51,17 +53,18 @@ def test_one_run_per_designer_and_shape_gaps_tests_and_plot(table, tmp_path, cap
     assert "Against ga" not in capsys.readouterr().out  # nothing to compare the baseline with
 
 
-def test_seeds_added_later_run_beside_the_first_run_and_give_the_table_of_one_run(table, tmp_path, capsys):
+def test_seeds_added_later_join_the_first_run_and_give_the_table_of_one_run(table, tmp_path, capsys):
     base = ["--designers", "random,ga", "--envs", "target", "--shapes", "3x3", "--evals-per-voxel", "4"]
     later, once = tmp_path / "later", tmp_path / "once"
     assert table.main([*base, "--seeds", "0", "--root", str(later)]) == 0
     capsys.readouterr()
     assert table.main([*base, "--seeds", "0..2,5", "--root", str(later), "--csv", str(tmp_path / "later.csv")]) == 0
     added = capsys.readouterr().out
-    assert sorted(p.name for p in (later / "3x3").iterdir()) == ["ga", "ga.seeds-1-2_5", "random", "random.seeds-1-2_5"]
-    stamp = (later / "3x3" / "ga.seeds-1-2_5" / "evaluations.parquet").stat().st_mtime_ns
+    assert sorted(p.name for p in (later / "3x3").iterdir()) == ["ga", "random"]
+    assert json.loads((later / "3x3" / "ga" / "run.json").read_text())["config"]["seeds"] == [0, 1, 2, 5]
+    stamp = (later / "3x3" / "ga" / "evaluations.parquet").stat().st_mtime_ns
     assert table.main([*base, "--seeds", "0..2,5", "--root", str(later)]) == 0  # nothing left to run
-    assert (later / "3x3" / "ga.seeds-1-2_5" / "evaluations.parquet").stat().st_mtime_ns == stamp
+    assert (later / "3x3" / "ga" / "evaluations.parquet").stat().st_mtime_ns == stamp
     assert table.main([*base, "--seeds", "0..2,5", "--root", str(once), "--csv", str(tmp_path / "once.csv")]) == 0
     def tests(out):  # the paired comparisons (the gap table's wall times differ between runs)
         return out[out.index("### Against"):out.index("### Time per generation")]
