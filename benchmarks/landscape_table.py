@@ -30,7 +30,7 @@ from gdabench.plan import Plan, file_name
 from gdabench.plugins import registry
 from gdabench.report.summary import summarize, thresholds
 
-from suite_runs import ensure_runs, run_dirs
+from suite_runs import ensure_runs, run_dirs, stopped
 
 
 def table_rows(designers: list[list[Path]], envs: list[PluginChoice]) -> pd.DataFrame:
@@ -95,9 +95,8 @@ def main(argv: list[str] | None = None) -> int:
             for experiment in experiments:
                 ensure_runs(args.root / file_name(experiment.designers[0].label), experiment)
         rows = table_rows([run_dirs(args.root / file_name(d.label)) for d in designers], envs)
-    except GdabenchError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    except (GdabenchError, KeyboardInterrupt) as exc:
+        return stopped(exc)
     if rows.empty:
         print(f"error: no runs under {args.root} for these designers", file=sys.stderr)
         return 2

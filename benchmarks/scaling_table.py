@@ -52,7 +52,7 @@ from gdabench.execution.options import Execution
 from gdabench.plan import Plan, file_name
 from gdabench.report.pairwise import a12, holm, magnitude, test_pair
 from gdabench.report.summary import per_run, thresholds
-from suite_runs import ensure_runs, run_dirs
+from suite_runs import ensure_runs, run_dirs, stopped
 
 DEFAULT_ENVS = "target,nk[k=4]"
 DEFAULT_SIZES = "5x5,8x8,12x12"
@@ -344,9 +344,8 @@ def main(argv: list[str] | None = None) -> int:
             for out, experiment in runs:
                 ensure_runs(out, experiment, execution, f"{experiment.designers[0].label} at {shape_text(experiment.shape)}")
         rows = collect(args.root, designers, shapes, envs)
-    except GdabenchError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    except (GdabenchError, KeyboardInterrupt) as exc:
+        return stopped(exc)
     if rows.empty:
         print(f"error: no runs under {args.root} for these designers and shapes", file=sys.stderr)
         return 2

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from gdabench import Experiment, RunDirectory
 from gdabench.config import format_seeds
-from gdabench.errors import ConfigError
+from gdabench.errors import ConfigError, GdabenchError, RunFailure, Terminated
 from gdabench.execution.options import Execution
 from gdabench.runner import compare
 
@@ -45,3 +45,14 @@ def ensure_runs(out: Path, experiment: Experiment, execution: Execution | None =
             print(f"resuming {label} in {path}" + (f", adding seeds {format_seeds(added)}" if added else ""), file=sys.stderr)
             compare(replace(config, seeds=config.seeds + added), path, resume=True, execution=execution)
     return run_dirs(out)
+
+
+def stopped(exc: GdabenchError | KeyboardInterrupt) -> int:
+    """Say in one line why a table script stopped, and its exit code as gdabench's: 2 for input, 1 for
+    a run that failed, 130 or 143 for Ctrl-C or SIGTERM (the runs so far are kept either way)."""
+    if isinstance(exc, KeyboardInterrupt):
+        how = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted"
+        print(f"error: {how}; the runs so far are kept, and the same command resumes them", file=sys.stderr)
+        return 143 if isinstance(exc, Terminated) else 130
+    print(f"error: {exc}", file=sys.stderr)
+    return 1 if isinstance(exc, RunFailure) else 2

@@ -51,3 +51,20 @@ def test_refuses_to_mix_settings_and_reports_unknown_designers(table, tmp_path, 
     assert "other settings" in capsys.readouterr().err
     assert table.main(["--designers", "random,nosuch", "--budget", "20", *base]) == 2
     assert "unknown designer 'nosuch'" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("raised", "code", "fragment"), [
+    ("Terminated", 143, "terminated (SIGTERM); the runs so far are kept, and the same command resumes them"),
+    ("KeyboardInterrupt", 130, "interrupted; the runs so far are kept"),
+    ("TrialError", 1, "a trial failed"),
+])
+def test_a_run_stopped_or_failed_is_one_line_with_gdabench_exit_codes(table, tmp_path, capsys, monkeypatch, raised, code, fragment):
+    from gdabench import errors
+
+    def stop(*args, **kwargs):
+        raise (KeyboardInterrupt if raised == "KeyboardInterrupt" else getattr(errors, raised))("a trial failed")
+
+    monkeypatch.setattr(table, "ensure_runs", stop)
+    assert table.main(["--designers", "random", "--envs", "target", "--seeds", "0", "--root", str(tmp_path)]) == code
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], lines
