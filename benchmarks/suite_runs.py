@@ -28,7 +28,8 @@ def ensure_runs(out: Path, experiment: Experiment, execution: Execution | None =
     """Run the seeds of ``experiment`` (one designer) that no run of the designer holds yet, added to
     the run in ``out``, and resume the interrupted runs holding seeds asked for; the run directories."""
     label = label or experiment.designers[0].label
-    runs = {path: Experiment.from_json(RunDirectory.open(path).meta["config"]) for path in run_dirs(out)}
+    metas = {path: RunDirectory.open(path).meta for path in run_dirs(out)}
+    runs = {path: Experiment.from_json(meta["config"]) for path, meta in metas.items()}
     for path, config in runs.items():
         if replace(config, seeds=experiment.seeds) != experiment:
             raise ConfigError(f"{path} holds a run with other settings (environments, budget or population); use another --root")
@@ -41,7 +42,7 @@ def ensure_runs(out: Path, experiment: Experiment, execution: Execution | None =
         return run_dirs(out)
     for path, config in runs.items():
         added = missing if path == out else ()
-        if added or (RunDirectory.open(path).meta.get("status") != "complete" and set(config.seeds) & set(experiment.seeds)):
+        if added or (metas[path].get("status") != "complete" and set(config.seeds) & set(experiment.seeds)):
             print(f"resuming {label} in {path}" + (f", adding seeds {format_seeds(added)}" if added else ""), file=sys.stderr)
             compare(replace(config, seeds=config.seeds + added), path, resume=True, execution=execution)
     return run_dirs(out)

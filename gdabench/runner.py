@@ -19,7 +19,7 @@ import threading
 import time
 import uuid
 from collections import deque
-from dataclasses import replace
+from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any, Iterator, Sequence
 
@@ -94,7 +94,7 @@ def compare(
             execution = Execution(**{**execution.to_json(), "timeout": meta["execution"]["timeout"]})
         plan = Plan.resolve(experiment, reg)
         run.lock()
-        added = {"added_seeds": [s for s in experiment.seeds if s not in stored.seeds]} if experiment != stored else {}
+        added = {"added_seeds": list(experiment.seeds[len(stored.seeds):])} if experiment != stored else {}
         run.update_meta(status="running", config=experiment.to_json(), error=None,
                         resumed=[*meta.get("resumed", []), {"at": utc_now(), **execution.to_json(), **added}])
     else:
@@ -136,8 +136,7 @@ def with_added_seeds(stored: Experiment, given: Experiment | None) -> Experiment
     """
     if given is None or given == stored:
         return stored
-    changed = [name for name in ("designers", "envs", "controller", "shape", "population", "budget", "stop_at_optimum")
-               if getattr(given, name) != getattr(stored, name)]
+    changed = [f.name for f in fields(Experiment) if f.name != "seeds" and getattr(given, f.name) != getattr(stored, f.name)]
     if changed:
         raise ConfigError(f"a resumed run keeps its experiment ({', '.join(changed)} would change); only seeds can be added")
     dropped = [s for s in stored.seeds if s not in given.seeds]
