@@ -25,8 +25,8 @@ def run_dirs(out: Path) -> list[Path]:
 
 
 def ensure_runs(out: Path, experiment: Experiment, execution: Execution | None = None, label: str | None = None) -> list[Path]:
-    """Run the seeds of ``experiment`` (one designer) that no run of the designer holds yet, added to
-    the run in ``out``, and resume the interrupted runs holding seeds asked for; the run directories."""
+    """Resume the interrupted runs of the designer holding seeds asked for, then add the seeds that no
+    run holds yet to the run in ``out`` (so work started is finished first); the run directories."""
     label = label or experiment.designers[0].label
     metas = {path: RunDirectory.open(path).meta for path in run_dirs(out)}
     runs = {path: Experiment.from_json(meta["config"]) for path, meta in metas.items()}
@@ -40,7 +40,7 @@ def ensure_runs(out: Path, experiment: Experiment, execution: Execution | None =
             print(f"running {label} (seeds {format_seeds(missing)}) into {out}", file=sys.stderr)
             compare(replace(experiment, seeds=missing), out, execution=execution, command=sys.argv)
         return run_dirs(out)
-    for path, config in runs.items():
+    for path, config in sorted(runs.items(), key=lambda item: item[0] == out):  # finish older runs before adding seeds
         added = missing if path == out else ()
         if added or (metas[path].get("status") != "complete" and set(config.seeds) & set(experiment.seeds)):
             print(f"resuming {label} in {path}" + (f", adding seeds {format_seeds(added)}" if added else ""), file=sys.stderr)

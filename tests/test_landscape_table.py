@@ -68,3 +68,21 @@ def test_a_run_stopped_or_failed_is_one_line_with_gdabench_exit_codes(table, tmp
     assert table.main(["--designers", "random", "--envs", "target", "--seeds", "0", "--root", str(tmp_path)]) == code
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], lines
+
+
+def test_an_interrupted_run_is_finished_before_seeds_are_added(table, tmp_path, monkeypatch):
+    import sys
+
+    from gdabench import Experiment
+    from gdabench.runner import compare
+
+    base = ["--designers", "random", "--envs", "target", "--budget", "20", "--population", "10", "--root", str(tmp_path)]
+    assert table.main([*base, "--seeds", "0"]) == 0
+    first = Experiment.from_json(json.loads((tmp_path / "random" / "run.json").read_text())["config"])
+    compare(replace(first, seeds=(1,)), tmp_path / "random.seeds-1")
+    meta = tmp_path / "random.seeds-1" / "run.json"
+    meta.write_text(json.dumps({**json.loads(meta.read_text()), "status": "interrupted"}))
+    calls = []
+    monkeypatch.setattr(sys.modules[table.ensure_runs.__module__], "compare", lambda experiment, out, **kw: calls.append((out.name, experiment.seeds)))
+    table.main([*base, "--seeds", "0..2"])
+    assert calls == [("random.seeds-1", (1,)), ("random", (0, 2))]
