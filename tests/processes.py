@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -20,7 +21,10 @@ def cli(*args: str, site: Path, env: dict | None = None, background: bool = Fals
     environ = dict(os.environ, COLUMNS="200", PYTHONPATH=os.pathsep.join(filter(None, [str(site), os.environ.get("PYTHONPATH")])), **(env or {}))
     command = [sys.executable, "-m", "gdabench", *args]
     if background:
-        return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environ)
+        # Ctrl-C as from a terminal, even when the suite itself runs as a background job (whose
+        # children inherit an ignored SIGINT and so would never see the tests' SIGINTs)
+        default_sigint = lambda: signal.signal(signal.SIGINT, signal.SIG_DFL)  # noqa: E731
+        return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environ, preexec_fn=default_sigint)
     return subprocess.run(command, capture_output=True, text=True, env=environ, timeout=timeout)
 
 
