@@ -16,14 +16,17 @@ from gdabench.results import RunDirectory
 TIMING = ["run_id", "eval_seconds", "design_seconds", "elapsed_seconds", "timestamp"]
 
 
+def default_sigint() -> None:
+    """Ctrl-C as from a terminal, even when the suite itself runs as a background job (whose children
+    inherit an ignored SIGINT and so would never see the tests' SIGINTs)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def cli(*args: str, site: Path, env: dict | None = None, background: bool = False, timeout: float = 300) -> subprocess.Popen | subprocess.CompletedProcess:
     """``python -m gdabench *args`` with the faulty plugin importable (``env`` adds variables)."""
     environ = dict(os.environ, COLUMNS="200", PYTHONPATH=os.pathsep.join(filter(None, [str(site), os.environ.get("PYTHONPATH")])), **(env or {}))
     command = [sys.executable, "-m", "gdabench", *args]
     if background:
-        # Ctrl-C as from a terminal, even when the suite itself runs as a background job (whose
-        # children inherit an ignored SIGINT and so would never see the tests' SIGINTs)
-        default_sigint = lambda: signal.signal(signal.SIGINT, signal.SIG_DFL)  # noqa: E731
         return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environ, preexec_fn=default_sigint)
     return subprocess.run(command, capture_output=True, text=True, env=environ, timeout=timeout)
 
