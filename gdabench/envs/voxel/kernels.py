@@ -1,0 +1,477 @@
+"""The physics of one environment step, for many environments at once (Numba, one thread per environment).
+
+Each function mirrors a routine of Evolution Gym 2.0's ``PhysicsEngine.cpp`` and keeps its order of
+floating-point operations wherever that order can change a result (sums of spring forces over edges
+in edge order, every RK4 stage, the contact force terms), so that trajectories agree with Evolution
+Gym's to rounding.  Every loop runs over one body's own counts, never over the padding, so a body's
+trajectory is bit-identical alone, in any batch, padded to any shape and on any number of threads.
+
+Arrays: ``pos``/``vel``/``vtrue`` are ``(N, P, 2)`` (robot points only; the terrain is a static
+collider with its own tables); body tables are indexed by ``body[i]`` and padded to the batch's
+largest body.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+DT = 0.0001
+SUBSTEPS = 30
+DRAG = 0.1
+GRAVITY = 110.0
+K_GROUND = 2000000.0 * 7
+K_OBJECT = 300000.0 * 7
+CONTACT_DAMPING = 140.0
+CONTACT_ADDITIVE = 0.005
+DYNAMIC_FRICTION = 0.2
+FRICTION = 150.0 * 8
+CONVERGENCE = 0.006
+BAND = 0.25
+BAND_RIGID = 0.03
+PARALLEL_TOL = 0.0001
+
+_jit = numba.njit(cache=True, error_model="numpy", boundscheck=False)
+
+#: which two edges (of top, right, bottom, left) meet at each corner (top-left, top-right, bottom-right, bottom-left)
+CORNER_EDGES = np.array([[0, 3], [0, 1], [2, 1], [2, 3]], dtype=np.int64)
+
+
+@_jit
+def _intersecting(pa, ea, pb, eb, ia, ib):
+    """``PhysicsEngine::get_intersecting``: do segment ``ia`` (points ``pa``) and ``ib`` (``pb``) cross?"""
+    a1x = pa[ea[ia, 0], 0]
+    a1y = pa[ea[ia, 0], 1]
+    d1x = pa[ea[ia, 1], 0] - a1x
+    d1y = pa[ea[ia, 1], 1] - a1y
+    a2x = pb[eb[ib, 0], 0]
+    a2y = pb[eb[ib, 0], 1]
+    d2x = pb[eb[ib, 1], 0] - a2x
+    d2y = pb[eb[ib, 1], 1] - a2y
+    det = -d1x * d2y + d2x * d1y
+    if abs(det) < PARALLEL_TOL:
+        return False
+    xd = a2x - a1x
+    yd = a2y - a1y
+    t = (-d2y * xd + d2x * yd) / det
+    s = (-d1y * xd + d1x * yd) / det
+    return 0.0 <= t and t <= 1.0 and 0.0 <= s and s <= 1.0
+
+
+@_jit
+def _dist_point_edge(px, py, pe, ee, ie):
+    ax = pe[ee[ie, 0], 0]
+    ay = pe[ee[ie, 0], 1]
+    bx = pe[ee[ie, 1], 0] - ax
+    by = pe[ee[ie, 1], 1] - ay
+    base = math.sqrt(bx * bx + by * by)
+    if base < 0.000001:
+        return 1000.0
+    sx = px - ax
+    sy = py - ay
+    return abs(bx * sy - sx * by) / base
+
+
+@_jit
+def _inside(px, py, pr, corners):
+    """``Boxel::point_in_boxel`` with corners (top-left, top-right, bottom-right, bottom-left)."""
+    tlx = pr[corners[0], 0] - px
+    tly = pr[corners[0], 1] - py
+    trx = pr[corners[1], 0] - px
+    try_ = pr[corners[1], 1] - py
+    brx = pr[corners[2], 0] - px
+    bry = pr[corners[2], 1] - py
+    blx = pr[corners[3], 0] - px
+    bly = pr[corners[3], 1] - py
+    a = tlx * try_ - tly * trx
+    b = trx * bry - try_ * brx
+    c = brx * tly - bry * tlx
+    if c * a >= 0.0 and c * b >= 0.0:
+        return True
+    d = tlx * bly - tly * blx
+    e = blx * bry - bly * brx
+    return c * d >= 0.0 and c * e >= 0.0
+
+
+
+@_jit
+def _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, pr, er, surf_r, vr, fr, apply_r):
+    """``PhysicsEngine::resolve_point_boxel_collisions``: push point ``p`` of a boxel out of another.
+
+    ``e1``/``e2``: the main boxel's two edges that meet at ``p``.  ``pm``/``em``/``vm``/``fm``: the
+    main object's positions, edge ends, true velocities and collision forces; ``pr``/``er``/``vr``/
+    ``fr`` the reference boxel's object's.  ``apply_*`` is False for the terrain, whose points never move.
+    """
+    px = pm[p, 0]
+    py = pm[p, 1]
+    best = -1
+    best_d = 0.0
+    for k in range(4):
+        e = ref_edges[k]
+        if not surf_r[e]:
+            continue
+        if _intersecting(pm, em, pr, er, e1, e) or _intersecting(pm, em, pr, er, e2, e):
+            d = _dist_point_edge(px, py, pr, er, e)
+            if best < 0 or d < best_d:
+                best = e
+                best_d = d
+    if best < 0:
+        return
+    a = er[best, 0]
+    b = er[best, 1]
+    sx = pr[b, 0] - pr[a, 0]
+    sy = pr[b, 1] - pr[a, 1]
+    nx = -sy
+    ny = sx
+    z = math.sqrt(nx * nx + ny * ny)
+    nx = nx / z
+    ny = ny / z
+    nfx = nx * K_OBJECT * (CONTACT_ADDITIVE + best_d)
+    nfy = ny * K_OBJECT * (CONTACT_ADDITIVE + best_d)
+    z = math.sqrt(nx * nx + ny * ny)
+    ux = nx / z
+    uy = ny / z
+    dp = ux * vm[p, 0] + uy * vm[p, 1]
+    da = ux * vr[a, 0] + uy * vr[a, 1]
+    db = ux * vr[b, 0] + uy * vr[b, 1]
+    v1x = ux * -1.0 * dp * CONTACT_DAMPING
+    v1y = uy * -1.0 * dp * CONTACT_DAMPING
+    v2x = ux * 1.0 * da * CONTACT_DAMPING
+    v2y = uy * 1.0 * da * CONTACT_DAMPING
+    v3x = ux * 1.0 * db * CONTACT_DAMPING
+    v3y = uy * 1.0 * db * CONTACT_DAMPING
+    if apply_m:
+        fm[p, 0] += nfx + v1x
+        fm[p, 1] += nfy + v1y
+    if apply_r:
+        fr[a, 0] -= nfx / 2 + v2x / 2
+        fr[a, 1] -= nfy / 2 + v2y / 2
+        fr[b, 0] -= nfx / 2 + v3x / 2
+        fr[b, 1] -= nfy / 2 + v3y / 2
+    tx = -uy
+    ty = ux
+    proj = tx * vm[p, 0] + ty * vm[p, 1]
+    mag = math.sqrt(nfx * nfx + nfy * nfy)
+    if proj < 0:
+        proj *= -1
+        tx *= -1
+        ty *= -1
+    th = math.tanh(proj / (DYNAMIC_FRICTION * mag))
+    ffx = FRICTION * tx * -1.0 * DYNAMIC_FRICTION * mag * th
+    ffy = FRICTION * ty * -1.0 * DYNAMIC_FRICTION * mag * th
+    if apply_m:
+        fm[p, 0] += ffx
+        fm[p, 1] += ffy
+    if apply_r:
+        fr[a, 0] -= ffx / 2
+        fr[a, 1] -= ffy / 2
+        fr[b, 0] -= ffx / 2
+        fr[b, 1] -= ffy / 2
+
+
+@_jit
+def _resolve_boxels(main_points, main_edges, pm, em, vm, fm, apply_m,
+                    ref_points, ref_edges, pr, er, surf_r, vr, fr, apply_r, same):
+    """``PhysicsEngine::resolve_boxel_collisions``: every corner of ``main`` inside ``ref`` is pushed out.
+
+    ``same``: both boxels belong to one object, whose shared corners are skipped.
+    """
+    for k in range(4):
+        p = main_points[k]
+        shared = False
+        if same:
+            for j in range(4):
+                if ref_points[j] == p:
+                    shared = True
+        if shared:
+            continue
+        if _inside(pm[p, 0], pm[p, 1], pr, ref_points):
+            e1 = main_edges[CORNER_EDGES[k, 0]]
+            e2 = main_edges[CORNER_EDGES[k, 1]]
+            _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, pr, er, surf_r, vr, fr, apply_r)
+
+
+@_jit
+def _overlap(bb, i, bt, j):
+    """``BoundingBox::in``: boxes (min x, min y, max x, max y) overlap or touch."""
+    if bb[i, 0] > bt[j, 2] or bb[i, 2] < bt[j, 0]:
+        return False
+    if bb[i, 1] > bt[j, 3] or bb[i, 3] < bt[j, 1]:
+        return False
+    return True
+
+
+@_jit
+def _slope(xp, xv, ne, ea, rest, k, cforce, n, fe, out_a):
+    """``PhysicsEngine::get_pos_vel_slope``: accelerations of the robot's points (mass 1) at one RK4 stage."""
+    for i in range(n):
+        out_a[i, 0] = 0.0
+        out_a[i, 1] = 0.0
+    for j in range(ne):
+        a = ea[j, 0]
+        b = ea[j, 1]
+        dx = xp[a, 0] - xp[b, 0]
+        dy = xp[a, 1] - xp[b, 1]
+        dist = math.sqrt(dx * dx + dy * dy)
+        mag = (dist - rest[j]) * k[j] / dist
+        fe[j, 0] = dx * mag
+        fe[j, 1] = dy * mag
+    for j in range(ne):
+        a = ea[j, 0]
+        out_a[a, 0] -= fe[j, 0]
+        out_a[a, 1] -= fe[j, 1]
+    for j in range(ne):
+        b = ea[j, 1]
+        out_a[b, 0] += fe[j, 0]
+        out_a[b, 1] += fe[j, 1]
+    for i in range(n):
+        fx = out_a[i, 0] + xv[i, 0] * -DRAG
+        fy = out_a[i, 1] + xv[i, 1] * -DRAG
+        fy = fy + 1.0 * -GRAVITY
+        fx = fx + cforce[i, 0]
+        fy = fy + cforce[i, 1]
+        y = xp[i, 1]
+        if y < 0:
+            normal = y * -K_GROUND
+            fy = fy + normal
+            fx = fx + (-10 * DYNAMIC_FRICTION) * (normal * math.tanh(xv[i, 0] * normal * DYNAMIC_FRICTION))
+        out_a[i, 0] = fx / 1.0
+        out_a[i, 1] = fy / 1.0
+
+
+@_jit
+def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, rig, terrain, pos, vel, vt, s):
+    """``Environment::step``: one physics update of dt 1e-4.  Returns the count of overlapping
+    non-adjacent surface boxel pairs (ordered, as Evolution Gym counts them) seen at its start."""
+    tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero = terrain
+    cf, bb, rest, fe, x0, v0, xs, vs, acc, sp, sv, corr = s
+    # collisions, from the positions and true velocities at the start of the update
+    for q in range(ns):
+        for c in range(2):
+            lo = pos[sbp[q, 0], c]
+            hi = lo
+            for m in range(1, 4):
+                v = pos[sbp[q, m], c]
+                lo = min(lo, v)
+                hi = max(hi, v)
+            bb[q, c] = lo
+            bb[q, 2 + c] = hi
+    for i in range(n):
+        cf[i, 0] = 0.0
+        cf[i, 1] = 0.0
+    count = 0
+    for q in range(npairs):
+        i = pairs[q, 0]
+        j = pairs[q, 1]
+        if not _overlap(bb, i, bb, j):
+            continue
+        if pairs[q, 2] == 0:
+            count += 2
+        # the bounding-box tree meets a pair of one object twice, as (i, j) and as (j, i)
+        for _ in range(2):
+            _resolve_boxels(sbp[i], sbe[i], pos, ea, vt, cf, True, sbp[j], sbe[j], pos, ea, esurf, vt, cf, True, True)
+            _resolve_boxels(sbp[j], sbe[j], pos, ea, vt, cf, True, sbp[i], sbe[i], pos, ea, esurf, vt, cf, True, True)
+    ncol = tcol_start.shape[0] - 1
+    for q in range(ns):
+        if math.isnan(bb[q, 0]) or math.isnan(bb[q, 2]):
+            continue
+        c0 = max(int(math.floor(bb[q, 0] / 0.1)) - 1, 0)
+        c1 = min(int(math.floor(bb[q, 2] / 0.1)) + 1, ncol - 1)
+        for c in range(c0, c1 + 1):
+            for m in range(tcol_start[c], tcol_start[c + 1]):
+                t = tcol_boxel[m]
+                if not _overlap(bb, q, tbb, t):
+                    continue
+                _resolve_boxels(sbp[q], sbe[q], pos, ea, vt, cf, True, tbp[t], tbe[t], tpos, tedge, tsurf, tzero, tzero,
+                                False, False)
+                _resolve_boxels(tbp[t], tbe[t], tpos, tedge, tzero, tzero, False, sbp[q], sbe[q], pos, ea, esurf, vt, cf,
+                                True, False)
+    # rest lengths re-anchored towards their goals
+    for j in range(ne):
+        dx = pos[ea[j, 0], 0] - pos[ea[j, 1], 0]
+        dy = pos[ea[j, 0], 1] - pos[ea[j, 1], 1]
+        dist = math.sqrt(dx * dx + dy * dy)
+        rest[j] = dist + (goal[j] - dist) * CONVERGENCE
+    # RK4 with the collision forces held
+    for i in range(n):
+        x0[i, 0] = pos[i, 0]
+        x0[i, 1] = pos[i, 1]
+        v0[i, 0] = vel[i, 0]
+        v0[i, 1] = vel[i, 1]
+    _slope(x0, v0, ne, ea, rest, k, cf, n, fe, acc)
+    for i in range(n):
+        for c in range(2):
+            kp = v0[i, c] * DT
+            kv = acc[i, c] * DT
+            sp[i, c] = kp
+            sv[i, c] = kv
+            xs[i, c] = x0[i, c] + kp * 0.5
+            vs[i, c] = v0[i, c] + kv * 0.5
+    _slope(xs, vs, ne, ea, rest, k, cf, n, fe, acc)
+    for i in range(n):
+        for c in range(2):
+            kp = vs[i, c] * DT
+            kv = acc[i, c] * DT
+            sp[i, c] = sp[i, c] + 2 * kp
+            sv[i, c] = sv[i, c] + 2 * kv
+            xs[i, c] = x0[i, c] + kp * 0.5
+            vs[i, c] = v0[i, c] + kv * 0.5
+    _slope(xs, vs, ne, ea, rest, k, cf, n, fe, acc)
+    for i in range(n):
+        for c in range(2):
+            kp = vs[i, c] * DT
+            kv = acc[i, c] * DT
+            sp[i, c] = sp[i, c] + 2 * kp
+            sv[i, c] = sv[i, c] + 2 * kv
+            xs[i, c] = x0[i, c] + kp
+            vs[i, c] = v0[i, c] + kv
+    _slope(xs, vs, ne, ea, rest, k, cf, n, fe, acc)
+    for i in range(n):
+        for c in range(2):
+            pos[i, c] = x0[i, c] + (sp[i, c] + vs[i, c] * DT) / 6
+            vel[i, c] = v0[i, c] + (sv[i, c] + acc[i, c] * DT) / 6
+    # edge clamps: every edge within 25% of its length (all at once), then rigid cells' edges within 3% (in turn)
+    for j in range(ne):
+        dx = pos[ea[j, 0], 0] - pos[ea[j, 1], 0]
+        dy = pos[ea[j, 0], 1] - pos[ea[j, 1], 1]
+        dist = math.sqrt(dx * dx + dy * dy)
+        over = (dist - rest0[j] * (1 + BAND)) / (dist * 2)
+        under = (dist - rest0[j] * (1 - BAND)) / (dist * 2)
+        stress = dist / rest0[j]
+        ox = dx * over if stress > 1 + BAND else 0.0
+        oy = dy * over if stress > 1 + BAND else 0.0
+        ux = dx * under if stress < 1 - BAND else 0.0
+        uy = dy * under if stress < 1 - BAND else 0.0
+        corr[j, 0] = (ox + ux) * 0.8
+        corr[j, 1] = (oy + uy) * 0.8
+    for j in range(ne):
+        pos[ea[j, 0], 0] -= corr[j, 0]
+        pos[ea[j, 0], 1] -= corr[j, 1]
+    for j in range(ne):
+        pos[ea[j, 1], 0] += corr[j, 0]
+        pos[ea[j, 1], 1] += corr[j, 1]
+    for r in range(nr):
+        for m in range(4):
+            j = rig[r, m]
+            a = ea[j, 0]
+            b = ea[j, 1]
+            dx = pos[a, 0] - pos[b, 0]
+            dy = pos[a, 1] - pos[b, 1]
+            dist = math.sqrt(dx * dx + dy * dy)
+            over = (dist - rest0[j] * (1 + BAND_RIGID)) / (dist * 2)
+            under = (dist - rest0[j] * (1 - BAND_RIGID)) / (dist * 2)
+            ox = dx * over
+            oy = dy * over
+            ux = dx * under
+            uy = dy * under
+            stress = dist / rest0[j]
+            if stress < 1 + BAND_RIGID:
+                ox = 0.0
+                oy = 0.0
+            if stress > 1 - BAND_RIGID:
+                ux = 0.0
+                uy = 0.0
+            pos[a, 0] -= (ox + ux) * 0.5
+            pos[a, 1] -= (oy + uy) * 0.5
+            pos[b, 0] += (ox + ux) * 0.5
+            pos[b, 1] += (oy + uy) * 0.5
+    for i in range(n):
+        vt[i, 0] = (pos[i, 0] - x0[i, 0]) / DT
+        vt[i, 1] = (pos[i, 1] - x0[i, 1]) / DT
+    return count
+
+
+@_jit
+def _com(pos, n):
+    """Evolution Gym's centre of mass x: the mean of the points' x as its Python side scales them."""
+    sx = 0.0
+    for i in range(n):
+        sx += pos[i, 0] / 0.1 * 0.1
+    return sx / n
+
+
+@_jit
+def _observe(pos, vel, n, out):
+    """Walker-v0's observation: centre-of-mass velocity, then every point's x, then every y, relative to the centre."""
+    vx = 0.0
+    vy = 0.0
+    mx = 0.0
+    my = 0.0
+    for i in range(n):
+        vx += vel[i, 0] / 0.1
+        vy += vel[i, 1] / 0.1
+        mx += pos[i, 0] / 0.1
+        my += pos[i, 1] / 0.1
+    mx = mx / n
+    my = my / n
+    out[0] = vx / n * 0.1
+    out[1] = vy / n * 0.1
+    for i in range(n):
+        out[2 + i] = (pos[i, 0] / 0.1 - mx) * 0.1
+        out[2 + n + i] = (pos[i, 1] / 0.1 - my) * 0.1
+    for i in range(2 + 2 * n, out.shape[0]):
+        out[i] = 0.0
+
+
+@numba.njit(cache=True, error_model="numpy", boundscheck=False, parallel=True)
+def step_batch(body, actions, pos, vel, vt, active, n_points, n_edges, edges, rest0, spring_k, edge_surface,
+               n_act, act_edges, n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges,
+               terrain, obs, dx, unstable):
+    """One env step (30 updates) of every active environment ``i`` (body ``body[i]``), in place.
+
+    An environment that becomes unstable is put back to its state before the step, as Evolution
+    Gym's snapshots are, and flagged in ``unstable``.  ``obs`` and ``dx`` (the centre of mass's x
+    gain) are written for every active environment.
+    """
+    n_env = body.shape[0]
+    P = pos.shape[1]
+    E = edges.shape[1]
+    S = surface_points.shape[1]
+    for i in numba.prange(n_env):
+        if not active[i]:
+            continue
+        b = body[i]
+        n = n_points[b]
+        ne = n_edges[b]
+        ea = edges[b]
+        r0 = rest0[b]
+        goal = r0.copy()
+        count = np.zeros(E, dtype=np.int64)
+        for m in range(n_act[b]):
+            for e in act_edges[b, m]:
+                goal[e] = 0.0
+        for m in range(n_act[b]):
+            for e in act_edges[b, m]:
+                goal[e] += actions[i, m]
+                count[e] += 1
+        for e in range(ne):
+            if count[e] > 0:
+                goal[e] *= r0[e] / count[e]
+        scratch = (np.zeros((P, 2)), np.empty((S, 4)), np.empty(E), np.empty((E, 2)), np.empty((P, 2)),
+                   np.empty((P, 2)), np.empty((P, 2)), np.empty((P, 2)), np.empty((P, 2)), np.empty((P, 2)),
+                   np.empty((P, 2)), np.empty((E, 2)))
+        p0 = pos[i].copy()
+        v0 = vel[i].copy()
+        t0 = vt[i].copy()
+        before = _com(pos[i], n)
+        unstable[i] = False
+        for _ in range(SUBSTEPS):
+            c = _substep(n, ne, ea, r0, spring_k[b], edge_surface[b], goal, n_surface[b], surface_points[b],
+                         surface_edges[b], n_pairs[b], pairs[b], n_rigid[b], rigid_edges[b], terrain,
+                         pos[i], vel[i], vt[i], scratch)
+            if c > n_surface[b]:
+                unstable[i] = True
+                pos[i] = p0
+                vel[i] = v0
+                vt[i] = t0
+                break
+        _observe(pos[i], vel[i], n, obs[i])
+        dx[i] = _com(pos[i], n) - before
+
+
+@numba.njit(cache=True, error_model="numpy", boundscheck=False)
+def observe_batch(body, pos, vel, n_points, out):
+    for i in range(body.shape[0]):
+        _observe(pos[i], vel[i], n_points[body[i]], out[i])
