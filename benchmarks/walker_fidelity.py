@@ -1,4 +1,8 @@
-"""Fidelity of ``gdabench/Walker-v1`` to Evolution Gym 2.0's Walker-v0: same bodies, same actions.
+"""Fidelity of gdabench's walker engines to Evolution Gym 2.0's Walker-v0: same bodies, same actions.
+
+``--engine voxel`` (the default) checks ``gdabench/Walker-v2`` (the batched voxel engine),
+``--engine pymunk`` ``gdabench/Walker-v1`` (the pymunk simulator; ``--physics`` overrides its
+constants).
 
 Run it in the Evolution Gym plugin's venv (``bash plugins/gdabench-evogym/install.sh``), which
 has both simulators.  The body set is reproducible from ``--seed``: ``--random-bodies`` bodies
@@ -16,7 +20,8 @@ gap between the two centre-of-mass x trajectories (in voxels), and the unstable 
 simulator (and those unstable in ours only).  The last lines give both simulators' env steps per
 second, timed side by side in this run (episodes interleaved), and their ratio.
 
-    python benchmarks/walker_fidelity.py                           # the full benchmark (~30 min)
+    python benchmarks/walker_fidelity.py                           # the full benchmark
+    python benchmarks/walker_fidelity.py --engine pymunk           # the pymunk walker (~30 min)
     python benchmarks/walker_fidelity.py --random-bodies 20 --gaits wave20,random
     python benchmarks/walker_fidelity.py --evogym-cache /tmp/evo.jsonl --part calibration --physics friction=2.0
 
@@ -44,7 +49,7 @@ import numpy as np
 import gdabench
 from gdabench.controllers.open_loop import Pattern
 from gdabench.errors import ConfigError
-from gdabench.envs.walker import ENV_ID
+from gdabench.envs.walker.env import ENGINES
 from gdabench.envs.walker.sim import WalkerPhysics
 
 STEPS = 500
@@ -160,10 +165,16 @@ def evogym_episode(case: Case, gait: str, steps: int) -> dict[str, Any]:
     return result
 
 
-def walker_episode(case: Case, gait: str, steps: int, physics: WalkerPhysics) -> dict[str, Any]:
-    env = gymnasium.make(ENV_ID, body=case.body, physics=physics)
-    sim = env.unwrapped
-    com_x = lambda: float(sim.sim.positions[:, 0].mean())  # noqa: E731
+def walker_episode(case: Case, gait: str, steps: int, engine: str, physics: WalkerPhysics) -> dict[str, Any]:
+    if engine == "pymunk":
+        env = gymnasium.make(ENGINES[engine], body=case.body, physics=physics)
+        sim = env.unwrapped
+        com_x = lambda: float(sim.sim.positions[:, 0].mean())  # noqa: E731
+    else:
+        env = gymnasium.make(ENGINES[engine], body=case.body)
+        sim = env.unwrapped
+        n = len(sim.batch.tables.objects[0].pos)
+        com_x = lambda: float(sim.batch.state.pos[0, :n, 0].mean())  # noqa: E731
     result = play(env, actions_for(gait, sim.actuator_voxels, case.seed, steps), com_x)
     env.close()
     return result
@@ -235,7 +246,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--part", choices=("all", "calibration", "held-out"), default="all")
     parser.add_argument("--gaits", default=",".join(GAITS), help="comma-separated names from: " + ", ".join(GAITS))
     parser.add_argument("--no-structured", action="store_true", help="random bodies only")
-    parser.add_argument("--physics", nargs="*", default=[], metavar="KEY=VALUE", help="override WalkerPhysics fields")
+    parser.add_argument("--engine", choices=tuple(ENGINES), default="voxel", help="which walker to check (default: voxel)")
+    parser.add_argument("--physics", nargs="*", default=[], metavar="KEY=VALUE", help="override WalkerPhysics fields (pymunk)")
     parser.add_argument("--evogym-cache", type=Path, help="JSON lines file of Evolution Gym episodes to reuse and extend")
     parser.add_argument("--json", type=Path, help="write every episode of both simulators here")
     parser.add_argument("--shard", default="0/1", metavar="K/N", help="play only bodies K, K+N, K+2N, ... of the set (to fill a cache in parallel)")
@@ -276,15 +288,16 @@ def main(argv: list[str] | None = None) -> None:
                 if cache_out is not None:
                     cache_out.write(json.dumps({"key": key, "result": theirs}) + "\n")
                     cache_out.flush()
-            ours = walker_episode(case, gait, args.steps, physics)
+            ours = walker_episode(case, gait, args.steps, args.engine, physics)
             timing["ours"][0] += ours["steps"]
             timing["ours"][1] += ours["seconds"]
             rows.append({"body": case.body, "part": case.part, "gait": gait, "ours": ours, "evogym": theirs})
     if cache_out is not None:
         cache_out.close()
-    print(f"gdabench {ENV_ID} against Evolution Gym 2.0 Walker-v0; seed {args.seed}, {args.steps} steps, gaits {', '.join(gaits)}")
-    changed = {f.name: getattr(physics, f.name) for f in fields(WalkerPhysics) if getattr(physics, f.name) != getattr(WalkerPhysics(), f.name)}
-    print(f"physics: WalkerPhysics defaults{' with ' + json.dumps(changed) if changed else ''}")
+    print(f"gdabench {ENGINES[args.engine]} against Evolution Gym 2.0 Walker-v0; seed {args.seed}, {args.steps} steps, gaits {', '.join(gaits)}")
+    if args.engine == "pymunk":
+        changed = {f.name: getattr(physics, f.name) for f in fields(WalkerPhysics) if getattr(physics, f.name) != getattr(WalkerPhysics(), f.name)}
+        print(f"physics: WalkerPhysics defaults{' with ' + json.dumps(changed) if changed else ''}")
     for part in ("calibration", "held-out"):
         part_rows = [r for r in rows if r["part"] == part]
         if part_rows:

@@ -24,7 +24,8 @@ from .hookspecs import hookimpl
 from .plugins import registry
 from .seeding import designer_seed
 from .specs import ControllerSpec, DesignerSpec, EnvironmentSpec
-from .envs import walker as _walker  # noqa: F401,E402 - registers gdabench/Walker-v0 with Gymnasium (pymunk loads on make)
+from .envs import voxel as _voxel  # noqa: F401,E402 - registers gdabench/Walker-v2 with Gymnasium (Numba loads on make)
+from .envs import walker as _walker  # noqa: F401,E402 - registers gdabench/Walker-v1 with Gymnasium (pymunk loads on make)
 
 __version__ = "0.1.0"
 

@@ -186,7 +186,7 @@ def test_the_lean_env_step_matches_torchrls_generic_step():
 
 
 def test_an_unstable_body_is_scored_not_crashed():
-    exploding = functools.partial(make_walker, WALKER, physics=WalkerPhysics(max_speed=1e-9))
+    exploding = functools.partial(make_walker, WALKER, "pymunk", physics=WalkerPhysics(max_speed=1e-9))
     out = PPO(timesteps=256, episode_end="full").evaluate(exploding, seed=0)
     assert out.reward == -3.0  # every episode ends unstable after one step
     assert out.info["ppo_unstable_episodes"] >= 256

@@ -87,7 +87,7 @@ def test_the_retired_v0_id_fails_with_one_line_naming_v1():
 
 
 def test_the_walker_environment_records_its_physics_version():
-    assert make_env("walker").version == "gdabench/Walker-v1"
+    assert make_env("walker", engine="pymunk").version == "gdabench/Walker-v1"
 
 
 @pytest.mark.parametrize(
@@ -493,7 +493,7 @@ def test_open_loop_is_registered_and_scores_a_body_on_the_walker():
 
 # -- the gdabench environment ----------------------------------------------------------------------
 def test_walker_env_scores_bodies_with_the_controller_it_is_given():
-    env = make_env("walker", shape=(3, 5))
+    env = make_env("walker", shape=(3, 5), engine="pymunk")
     body = Body.from_text(WALKER_BODY)
     assert env.requires_controller and env.deterministic and env.invalid_reason(body) is None
     assert env.invalid_reason(Body.from_text("33333/40004")) is not None  # wrong shape
@@ -515,7 +515,7 @@ def test_walker_env_renders_the_best_episode():
 def test_compare_runs_the_walker_with_open_loop(tmp_path):
     experiment = gdabench.Experiment(
         designers=(gdabench.PluginChoice("random"),),
-        envs=gdabench.PluginChoice("walker"),
+        envs=gdabench.PluginChoice("walker", {"engine": "pymunk"}),
         controller=gdabench.PluginChoice("open-loop", {"trials": 1}),
         shape=(3, 3),
         population=2,

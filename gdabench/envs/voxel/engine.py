@@ -41,7 +41,7 @@ class BodyTables:
     surface_points: np.ndarray  # (B, S, 4)
     surface_edges: np.ndarray  # (B, S, 4)
     n_pairs: np.ndarray
-    pairs: np.ndarray  # (B, Q, 3): surface boxels i < j and whether they are grid neighbours
+    pairs: np.ndarray  # (B, Q, 5): surface boxels i < j, grid neighbours?, corners of i (bits) not in j, of j not in i
     n_rigid: np.ndarray
     rigid_edges: np.ndarray  # (B, R, 4)
     init_pos: np.ndarray  # (B, P, 2)
@@ -91,6 +91,7 @@ class State:
 class StepOutput:
     obs: np.ndarray  # (N, 2 + 2P): [v_com (2), x of each point, y of each point, padding]
     dx: np.ndarray  # (N,) gain of the centre of mass's x
+    com: np.ndarray  # (N,) the centre of mass's x after the step
     unstable: np.ndarray  # (N,) bool
 
 
@@ -127,6 +128,11 @@ def _pad(rows: Sequence[np.ndarray], shape: tuple[int, ...], dtype, fill=0) -> n
     return out
 
 
+def _unshared(main: np.ndarray, ref: np.ndarray) -> int:
+    """Bit mask of ``main``'s corners that ``ref`` does not share (the only ones tested for contact)."""
+    return sum(1 << k for k in range(4) if main[k] not in ref)
+
+
 def body_tables(bodies: Sequence[Body | np.ndarray | str], pad: BodyTables | None = None,
                 at: tuple[int, int] = ROBOT_AT) -> BodyTables:
     """Build and pad the tables of ``bodies`` placed at voxel ``at`` (to the largest of them, or at
@@ -135,10 +141,11 @@ def body_tables(bodies: Sequence[Body | np.ndarray | str], pad: BodyTables | Non
     surf = [np.flatnonzero(o.boxel_surface) for o in objs]
     pair_rows, rigid_rows, act_rows = [], [], []
     for o, s in zip(objs, surf):
-        cells = o.boxel_cell[s]
-        rows = [(i, j, int(np.all(np.abs(cells[i] - cells[j]) <= 1)))
+        cells, corners = o.boxel_cell[s], o.boxel_points[s]
+        rows = [(i, j, int(np.all(np.abs(cells[i] - cells[j]) <= 1)),
+                 _unshared(corners[i], corners[j]), _unshared(corners[j], corners[i]))
                 for i in range(len(s)) for j in range(i + 1, len(s))]
-        pair_rows.append(np.array(rows, dtype=np.int64).reshape(-1, 3))
+        pair_rows.append(np.array(rows, dtype=np.int64).reshape(-1, 5))
         rigid_rows.append(o.boxel_edges[o.boxel_type == RIGID])
         acts = []
         for a in o.actuators:
@@ -171,7 +178,7 @@ def body_tables(bodies: Sequence[Body | np.ndarray | str], pad: BodyTables | Non
         surface_points=_pad([o.boxel_points[s] for o, s in zip(objs, surf)], (S, 4), i64),
         surface_edges=_pad([o.boxel_edges[s] for o, s in zip(objs, surf)], (S, 4), i64),
         n_pairs=np.array([len(r) for r in pair_rows], dtype=i64),
-        pairs=_pad(pair_rows, (Q, 3), i64),
+        pairs=_pad(pair_rows, (Q, 5), i64),
         n_rigid=np.array([len(r) for r in rigid_rows], dtype=i64),
         rigid_edges=_pad(rigid_rows, (R, 4), i64),
         init_pos=_pad([o.pos for o in objs], (P, 2), np.float64),
@@ -206,11 +213,12 @@ def step(tables: BodyTables, terrain: Terrain, state: State, actions: np.ndarray
     active = np.ones(n, dtype=np.bool_) if active is None else np.asarray(active, dtype=np.bool_)
     obs = np.zeros((n, 2 + 2 * tables.max_points))
     dx = np.zeros(n)
+    com = np.zeros(n)
     unstable = np.zeros(n, dtype=np.bool_)
     kernels.step_batch(
         state.body, np.ascontiguousarray(acts), new.pos, new.vel, new.vtrue, active, tables.n_points, tables.n_edges,
         tables.edges, tables.rest0, tables.spring_k, tables.edge_surface, tables.n_act, tables.act_edges,
         tables.n_surface, tables.surface_points, tables.surface_edges, tables.n_pairs, tables.pairs, tables.n_rigid,
-        tables.rigid_edges, terrain.arrays(), obs, dx, unstable,
+        tables.rigid_edges, terrain.arrays(), obs, dx, com, unstable,
     )
-    return new, StepOutput(obs=obs, dx=dx, unstable=unstable)
+    return new, StepOutput(obs=obs, dx=dx, com=com, unstable=unstable)

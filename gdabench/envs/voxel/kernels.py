@@ -97,12 +97,13 @@ def _inside(px, py, pr, corners):
 
 
 @_jit
-def _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, pr, er, surf_r, vr, fr, apply_r):
+def _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, pr, er, surf_r, vr, fr, apply_r, times):
     """``PhysicsEngine::resolve_point_boxel_collisions``: push point ``p`` of a boxel out of another.
 
     ``e1``/``e2``: the main boxel's two edges that meet at ``p``.  ``pm``/``em``/``vm``/``fm``: the
     main object's positions, edge ends, true velocities and collision forces; ``pr``/``er``/``vr``/
-    ``fr`` the reference boxel's object's.  ``apply_*`` is False for the terrain, whose points never move.
+    ``fr`` the reference boxel's object's.  ``apply_*`` is False for the terrain, whose points never
+    move.  The forces are added ``times`` times (Evolution Gym meets a pair of one object twice).
     """
     px = pm[p, 0]
     py = pm[p, 1]
@@ -142,14 +143,6 @@ def _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, pr, er, surf_r
     v2y = uy * 1.0 * da * CONTACT_DAMPING
     v3x = ux * 1.0 * db * CONTACT_DAMPING
     v3y = uy * 1.0 * db * CONTACT_DAMPING
-    if apply_m:
-        fm[p, 0] += nfx + v1x
-        fm[p, 1] += nfy + v1y
-    if apply_r:
-        fr[a, 0] -= nfx / 2 + v2x / 2
-        fr[a, 1] -= nfy / 2 + v2y / 2
-        fr[b, 0] -= nfx / 2 + v3x / 2
-        fr[b, 1] -= nfy / 2 + v3y / 2
     tx = -uy
     ty = ux
     proj = tx * vm[p, 0] + ty * vm[p, 1]
@@ -161,36 +154,40 @@ def _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, pr, er, surf_r
     th = math.tanh(proj / (DYNAMIC_FRICTION * mag))
     ffx = FRICTION * tx * -1.0 * DYNAMIC_FRICTION * mag * th
     ffy = FRICTION * ty * -1.0 * DYNAMIC_FRICTION * mag * th
-    if apply_m:
-        fm[p, 0] += ffx
-        fm[p, 1] += ffy
-    if apply_r:
-        fr[a, 0] -= ffx / 2
-        fr[a, 1] -= ffy / 2
-        fr[b, 0] -= ffx / 2
-        fr[b, 1] -= ffy / 2
+    for _ in range(times):
+        if apply_m:
+            fm[p, 0] += nfx + v1x
+            fm[p, 1] += nfy + v1y
+        if apply_r:
+            fr[a, 0] -= nfx / 2 + v2x / 2
+            fr[a, 1] -= nfy / 2 + v2y / 2
+            fr[b, 0] -= nfx / 2 + v3x / 2
+            fr[b, 1] -= nfy / 2 + v3y / 2
+        if apply_m:
+            fm[p, 0] += ffx
+            fm[p, 1] += ffy
+        if apply_r:
+            fr[a, 0] -= ffx / 2
+            fr[a, 1] -= ffy / 2
+            fr[b, 0] -= ffx / 2
+            fr[b, 1] -= ffy / 2
 
 
 @_jit
 def _resolve_boxels(main_points, main_edges, pm, em, vm, fm, apply_m,
-                    ref_points, ref_edges, pr, er, surf_r, vr, fr, apply_r, same):
+                    ref_points, ref_edges, pr, er, surf_r, vr, fr, apply_r, corners, times):
     """``PhysicsEngine::resolve_boxel_collisions``: every corner of ``main`` inside ``ref`` is pushed out.
 
-    ``same``: both boxels belong to one object, whose shared corners are skipped.
+    ``corners``: bit ``k`` set when corner ``k`` is tested (corners shared by the two boxels never are).
     """
     for k in range(4):
-        p = main_points[k]
-        shared = False
-        if same:
-            for j in range(4):
-                if ref_points[j] == p:
-                    shared = True
-        if shared:
+        if not (corners >> k) & 1:
             continue
+        p = main_points[k]
         if _inside(pm[p, 0], pm[p, 1], pr, ref_points):
             e1 = main_edges[CORNER_EDGES[k, 0]]
             e2 = main_edges[CORNER_EDGES[k, 1]]
-            _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, pr, er, surf_r, vr, fr, apply_r)
+            _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, pr, er, surf_r, vr, fr, apply_r, times)
 
 
 @_jit
@@ -270,9 +267,10 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
         if pairs[q, 2] == 0:
             count += 2
         # the bounding-box tree meets a pair of one object twice, as (i, j) and as (j, i)
-        for _ in range(2):
-            _resolve_boxels(sbp[i], sbe[i], pos, ea, vt, cf, True, sbp[j], sbe[j], pos, ea, esurf, vt, cf, True, True)
-            _resolve_boxels(sbp[j], sbe[j], pos, ea, vt, cf, True, sbp[i], sbe[i], pos, ea, esurf, vt, cf, True, True)
+        _resolve_boxels(sbp[i], sbe[i], pos, ea, vt, cf, True, sbp[j], sbe[j], pos, ea, esurf, vt, cf, True,
+                        pairs[q, 3], 2)
+        _resolve_boxels(sbp[j], sbe[j], pos, ea, vt, cf, True, sbp[i], sbe[i], pos, ea, esurf, vt, cf, True,
+                        pairs[q, 4], 2)
     ncol = tcol_start.shape[0] - 1
     for q in range(ns):
         if math.isnan(bb[q, 0]) or math.isnan(bb[q, 2]):
@@ -285,9 +283,9 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
                 if not _overlap(bb, q, tbb, t):
                     continue
                 _resolve_boxels(sbp[q], sbe[q], pos, ea, vt, cf, True, tbp[t], tbe[t], tpos, tedge, tsurf, tzero, tzero,
-                                False, False)
+                                False, 15, 1)
                 _resolve_boxels(tbp[t], tbe[t], tpos, tedge, tzero, tzero, False, sbp[q], sbe[q], pos, ea, esurf, vt, cf,
-                                True, False)
+                                True, 15, 1)
     # rest lengths re-anchored towards their goals
     for j in range(ne):
         dx = pos[ea[j, 0], 0] - pos[ea[j, 1], 0]
@@ -418,12 +416,12 @@ def _observe(pos, vel, n, out):
 @numba.njit(cache=True, error_model="numpy", boundscheck=False, parallel=True)
 def step_batch(body, actions, pos, vel, vt, active, n_points, n_edges, edges, rest0, spring_k, edge_surface,
                n_act, act_edges, n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges,
-               terrain, obs, dx, unstable):
+               terrain, obs, dx, com, unstable):
     """One env step (30 updates) of every active environment ``i`` (body ``body[i]``), in place.
 
     An environment that becomes unstable is put back to its state before the step, as Evolution
-    Gym's snapshots are, and flagged in ``unstable``.  ``obs`` and ``dx`` (the centre of mass's x
-    gain) are written for every active environment.
+    Gym's snapshots are, and flagged in ``unstable``.  ``obs``, ``com`` (the centre of mass's x) and
+    ``dx`` (its gain) are written for every active environment.
     """
     n_env = body.shape[0]
     P = pos.shape[1]
@@ -468,7 +466,8 @@ def step_batch(body, actions, pos, vel, vt, active, n_points, n_edges, edges, re
                 vt[i] = t0
                 break
         _observe(pos[i], vel[i], n, obs[i])
-        dx[i] = _com(pos[i], n) - before
+        com[i] = _com(pos[i], n)
+        dx[i] = com[i] - before
 
 
 @numba.njit(cache=True, error_model="numpy", boundscheck=False)

@@ -2,8 +2,12 @@
 
 The harness passes the controller chosen with ``--controller``; scoring and report animations
 come from :class:`~gdabench.envs.controlled.ControlledEnvironment`, which hands the controller
-fresh ``gdabench/Walker-v1`` Gymnasium environments, so a controller written against Gymnasium
-(open-loop, PPO, ...) never needs to know about pymunk.
+fresh Gymnasium environments, so a controller written against Gymnasium (open-loop, PPO, ...)
+never needs to know which simulator runs underneath.  ``engine`` chooses it:
+
+* ``voxel`` (the default): ``gdabench/Walker-v2``, Evolution Gym 2.0's own physics on the batched
+  voxel engine (:mod:`gdabench.envs.voxel`);
+* ``pymunk``: ``gdabench/Walker-v1``, the earlier pymunk simulator calibrated against it.
 """
 
 from __future__ import annotations
@@ -13,20 +17,30 @@ from typing import Any
 import gymnasium
 
 from ...body import Body
+from ...errors import ConfigError
+from .. import voxel
 from ..controlled import ControlledEnvironment
 from . import ENV_ID
 
+#: engine name -> the Gymnasium id it runs
+ENGINES = {"voxel": voxel.ENV_ID, "pymunk": ENV_ID}
 
-def make_walker(body: Body, **kwargs: Any) -> gymnasium.Env:
-    """A fresh ``gdabench/Walker-v1`` for ``body`` (picklable through functools.partial)."""
-    return gymnasium.make(ENV_ID, body=body.text, **kwargs)
+
+def make_walker(body: Body, engine: str = "voxel", **kwargs: Any) -> gymnasium.Env:
+    """A fresh walker Gymnasium env for ``body`` on ``engine`` (picklable through functools.partial)."""
+    return gymnasium.make(ENGINES[engine], body=body.text, **kwargs)
 
 
 class Walker(ControlledEnvironment):
-    """Evolution Gym's Walker-v0 on the pymunk simulator; needs a controller."""
+    """Evolution Gym's Walker-v0; needs a controller.  ``engine``: ``voxel`` or ``pymunk``."""
 
-    #: the physics every row records (``env_version``)
-    version = ENV_ID
+    def __init__(self, *, shape: tuple[int, int] = (5, 5), engine: str = "voxel"):
+        super().__init__(shape=shape)
+        if engine not in ENGINES:
+            raise ConfigError(f"walker: engine must be one of {', '.join(ENGINES)}, got {engine!r}")
+        self.engine = engine
+        #: the physics every row records (``env_version``): the Gymnasium id names the engine
+        self.version = ENGINES[engine]
 
     def make_env(self, body: Body, **kwargs: Any) -> gymnasium.Env:
-        return make_walker(body, **kwargs)
+        return make_walker(body, self.engine, **kwargs)
