@@ -2,14 +2,15 @@
 
 For each body (Evolution Gym's sampler, ``gdabench.random_body``) one episode of uniformly
 random actions in [0.6, 1.6] (or, with ``--actions open-loop``, the open-loop controller's
-default gait) is played on ``gdabench/Walker-v1``.  Prints the share of
+default gait) is played on the walker of ``--engine`` (``voxel``: ``gdabench/Walker-v2``, the
+default; ``pymunk``: ``gdabench/Walker-v1``).  Prints the share of
 episodes that ended unstable (-3, terminated) with the reasons, and checks that nothing
 slipped through undetected: no exception, no NaN, every observation inside the observation
 space, no step moving the centre of mass implausibly far, every unstable step rewarded -3.
 
     python benchmarks/walker_stability.py --bodies 1000 --steps 500 --seed 0
     python benchmarks/walker_stability.py --bodies 1000 --actions open-loop
-    python benchmarks/walker_stability.py --bodies 200 --physics substeps=4
+    python benchmarks/walker_stability.py --bodies 200 --engine pymunk --physics substeps=4
 """
 
 from __future__ import annotations
@@ -25,15 +26,17 @@ import numpy as np
 import gdabench
 from gdabench.controllers.open_loop import OpenLoop
 from gdabench.errors import ConfigError
-from gdabench.envs.walker import ENV_ID
+from gdabench.envs.walker.env import ENGINES
 from gdabench.envs.walker.sim import WalkerPhysics
 
 #: per-step centre-of-mass motion no stable simulation produces (100 m/s, max_speed, for 0.003 s)
 IMPLAUSIBLE_STEP = 0.3
 
 
-def episode(body: gdabench.Body, physics: WalkerPhysics, rng: np.random.Generator, steps: int, actions: str) -> dict:
-    env = gymnasium.make(ENV_ID, body=body, physics=physics, max_episode_steps=steps)
+def episode(body: gdabench.Body, engine: str, physics: WalkerPhysics, rng: np.random.Generator, steps: int,
+            actions: str) -> dict:
+    extra = {"physics": physics} if engine == "pymunk" else {}
+    env = gymnasium.make(ENGINES[engine], body=body, max_episode_steps=steps, **extra)
     out = {"unstable": None, "nan": False, "outside": False, "implausible": False, "bad_penalty": False, "steps": 0}
     obs, _ = env.reset(seed=0)
     space = env.observation_space
@@ -66,7 +69,8 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--shape", default="5x5")
     parser.add_argument("--actions", choices=("random", "open-loop"), default="random")
-    parser.add_argument("--physics", nargs="*", default=[], metavar="KEY=VALUE", help="override WalkerPhysics fields")
+    parser.add_argument("--engine", choices=tuple(ENGINES), default="voxel")
+    parser.add_argument("--physics", nargs="*", default=[], metavar="KEY=VALUE", help="override WalkerPhysics fields (pymunk)")
     args = parser.parse_args()
     try:
         physics = WalkerPhysics().with_overrides(args.physics)
@@ -82,7 +86,7 @@ def main() -> None:
     for _ in range(args.bodies):
         body = gdabench.random_body(body_rng, shape)
         try:
-            result = episode(body, physics, action_rng, args.steps, args.actions)
+            result = episode(body, args.engine, physics, action_rng, args.steps, args.actions)
         except Exception as exc:  # noqa: BLE001 - counted and reported, never hidden
             problems["exception"] += 1
             examples.setdefault("exception", f"{body.text}: {type(exc).__name__}: {exc}")
@@ -97,7 +101,7 @@ def main() -> None:
                 examples.setdefault(key, body.text)
     seconds = time.perf_counter() - start
     unstable = sum(reasons.values())
-    print(f"bodies: {args.bodies} ({args.shape}), {args.actions} actions, {args.steps} steps each, seed {args.seed}")
+    print(f"{ENGINES[args.engine]}: {args.bodies} bodies ({args.shape}), {args.actions} actions, {args.steps} steps each, seed {args.seed}")
     print(f"unstable episodes: {unstable} ({100.0 * unstable / args.bodies:.2f}%)")
     for reason, count in reasons.most_common():
         print(f"  {count:5d}  {reason}  (e.g. {examples[reason]})")

@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Sequence
 
+import numba
 import numpy as np
 
 from ...body import Body, as_body
@@ -22,6 +23,8 @@ from .model import FIXED, H_ACT, RIGID, V_ACT, Object, build_object
 
 #: where Walker-v0 places the robot (voxels): x 1, bottom at y 1
 ROBOT_AT = (1, 1)
+#: smaller batches step on the calling thread: waking threads costs more than they save
+PARALLEL_FROM = 8
 
 
 @dataclass(frozen=True)
@@ -215,10 +218,11 @@ def step(tables: BodyTables, terrain: Terrain, state: State, actions: np.ndarray
     dx = np.zeros(n)
     com = np.zeros(n)
     unstable = np.zeros(n, dtype=np.bool_)
-    kernels.step_batch(
-        state.body, np.ascontiguousarray(acts), new.pos, new.vel, new.vtrue, active, tables.n_points, tables.n_edges,
+    kernel = kernels.step_parallel if n >= PARALLEL_FROM and numba.get_num_threads() > 1 else kernels.step_serial
+    kernel(
+        active, state.body, np.ascontiguousarray(acts), new.pos, new.vel, new.vtrue, tables.n_points, tables.n_edges,
         tables.edges, tables.rest0, tables.spring_k, tables.edge_surface, tables.n_act, tables.act_edges,
         tables.n_surface, tables.surface_points, tables.surface_edges, tables.n_pairs, tables.pairs, tables.n_rigid,
-        tables.rigid_edges, terrain.arrays(), obs, dx, com, unstable,
+        tables.rigid_edges, *terrain.arrays(), obs, dx, com, unstable,
     )
     return new, StepOutput(obs=obs, dx=dx, com=com, unstable=unstable)

@@ -75,19 +75,26 @@ def _dist_point_edge(px, py, pe, ee, ie):
 
 
 @_jit
-def _inside(px, py, pr, corners):
-    """``Boxel::point_in_boxel`` with corners (top-left, top-right, bottom-right, bottom-left)."""
+def _inside(px, py, pr, corners, box):
+    """``Boxel::point_in_boxel`` with corners (top-left, top-right, bottom-right, bottom-left).
+
+    Its test passes a point in either triangle (tl, tr, br) or (tl, bl, br), and any point on the
+    line through br and tl (``c == 0``).  ``box`` is the boxel's bounding box: a point outside it
+    can only pass through that line, which is all that is computed then (same answers, faster).
+    """
     tlx = pr[corners[0], 0] - px
     tly = pr[corners[0], 1] - py
-    trx = pr[corners[1], 0] - px
-    try_ = pr[corners[1], 1] - py
     brx = pr[corners[2], 0] - px
     bry = pr[corners[2], 1] - py
+    c = brx * tly - bry * tlx
+    if px < box[0] or px > box[2] or py < box[1] or py > box[3]:
+        return c == 0.0
+    trx = pr[corners[1], 0] - px
+    try_ = pr[corners[1], 1] - py
     blx = pr[corners[3], 0] - px
     bly = pr[corners[3], 1] - py
     a = tlx * try_ - tly * trx
     b = trx * bry - try_ * brx
-    c = brx * tly - bry * tlx
     if c * a >= 0.0 and c * b >= 0.0:
         return True
     d = tlx * bly - tly * blx
@@ -175,7 +182,7 @@ def _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, pr, er, surf_r
 
 @_jit
 def _resolve_boxels(main_points, main_edges, pm, em, vm, fm, apply_m,
-                    ref_points, ref_edges, pr, er, surf_r, vr, fr, apply_r, corners, times):
+                    ref_points, ref_edges, ref_box, pr, er, surf_r, vr, fr, apply_r, corners, times):
     """``PhysicsEngine::resolve_boxel_collisions``: every corner of ``main`` inside ``ref`` is pushed out.
 
     ``corners``: bit ``k`` set when corner ``k`` is tested (corners shared by the two boxels never are).
@@ -184,7 +191,7 @@ def _resolve_boxels(main_points, main_edges, pm, em, vm, fm, apply_m,
         if not (corners >> k) & 1:
             continue
         p = main_points[k]
-        if _inside(pm[p, 0], pm[p, 1], pr, ref_points):
+        if _inside(pm[p, 0], pm[p, 1], pr, ref_points, ref_box):
             e1 = main_edges[CORNER_EDGES[k, 0]]
             e2 = main_edges[CORNER_EDGES[k, 1]]
             _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, pr, er, surf_r, vr, fr, apply_r, times)
@@ -262,14 +269,14 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
     for q in range(npairs):
         i = pairs[q, 0]
         j = pairs[q, 1]
-        if not _overlap(bb, i, bb, j):
+        if bb[i, 0] > bb[j, 2] or bb[i, 2] < bb[j, 0] or bb[i, 1] > bb[j, 3] or bb[i, 3] < bb[j, 1]:
             continue
         if pairs[q, 2] == 0:
             count += 2
         # the bounding-box tree meets a pair of one object twice, as (i, j) and as (j, i)
-        _resolve_boxels(sbp[i], sbe[i], pos, ea, vt, cf, True, sbp[j], sbe[j], pos, ea, esurf, vt, cf, True,
+        _resolve_boxels(sbp[i], sbe[i], pos, ea, vt, cf, True, sbp[j], sbe[j], bb[j], pos, ea, esurf, vt, cf, True,
                         pairs[q, 3], 2)
-        _resolve_boxels(sbp[j], sbe[j], pos, ea, vt, cf, True, sbp[i], sbe[i], pos, ea, esurf, vt, cf, True,
+        _resolve_boxels(sbp[j], sbe[j], pos, ea, vt, cf, True, sbp[i], sbe[i], bb[i], pos, ea, esurf, vt, cf, True,
                         pairs[q, 4], 2)
     ncol = tcol_start.shape[0] - 1
     for q in range(ns):
@@ -282,10 +289,10 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
                 t = tcol_boxel[m]
                 if not _overlap(bb, q, tbb, t):
                     continue
-                _resolve_boxels(sbp[q], sbe[q], pos, ea, vt, cf, True, tbp[t], tbe[t], tpos, tedge, tsurf, tzero, tzero,
-                                False, 15, 1)
-                _resolve_boxels(tbp[t], tbe[t], tpos, tedge, tzero, tzero, False, sbp[q], sbe[q], pos, ea, esurf, vt, cf,
-                                True, 15, 1)
+                _resolve_boxels(sbp[q], sbe[q], pos, ea, vt, cf, True, tbp[t], tbe[t], tbb[t], tpos, tedge, tsurf, tzero,
+                                tzero, False, 15, 1)
+                _resolve_boxels(tbp[t], tbe[t], tpos, tedge, tzero, tzero, False, sbp[q], sbe[q], bb[q], pos, ea, esurf, vt,
+                                cf, True, 15, 1)
     # rest lengths re-anchored towards their goals
     for j in range(ne):
         dx = pos[ea[j, 0], 0] - pos[ea[j, 1], 0]
@@ -413,61 +420,78 @@ def _observe(pos, vel, n, out):
         out[i] = 0.0
 
 
-@numba.njit(cache=True, error_model="numpy", boundscheck=False, parallel=True)
-def step_batch(body, actions, pos, vel, vt, active, n_points, n_edges, edges, rest0, spring_k, edge_surface,
-               n_act, act_edges, n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges,
-               terrain, obs, dx, com, unstable):
-    """One env step (30 updates) of every active environment ``i`` (body ``body[i]``), in place.
+@_jit
+def _step_env(i, body, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, n_act, act_edges,
+              n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges, tpos, tedge, tsurf, tbp,
+              tbe, tbb, tcol_start, tcol_boxel, tzero, obs, dx, com, unstable):
+    """One env step (30 updates) of environment ``i`` (body ``body[i]``), in place.
 
     An environment that becomes unstable is put back to its state before the step, as Evolution
     Gym's snapshots are, and flagged in ``unstable``.  ``obs``, ``com`` (the centre of mass's x) and
-    ``dx`` (its gain) are written for every active environment.
+    ``dx`` (its gain) are written.
     """
-    n_env = body.shape[0]
     P = pos.shape[1]
     E = edges.shape[1]
     S = surface_points.shape[1]
-    for i in numba.prange(n_env):
-        if not active[i]:
-            continue
-        b = body[i]
-        n = n_points[b]
-        ne = n_edges[b]
-        ea = edges[b]
-        r0 = rest0[b]
-        goal = r0.copy()
-        count = np.zeros(E, dtype=np.int64)
-        for m in range(n_act[b]):
-            for e in act_edges[b, m]:
-                goal[e] = 0.0
-        for m in range(n_act[b]):
-            for e in act_edges[b, m]:
-                goal[e] += actions[i, m]
-                count[e] += 1
-        for e in range(ne):
-            if count[e] > 0:
-                goal[e] *= r0[e] / count[e]
-        scratch = (np.zeros((P, 2)), np.empty((S, 4)), np.empty(E), np.empty((E, 2)), np.empty((P, 2)),
-                   np.empty((P, 2)), np.empty((P, 2)), np.empty((P, 2)), np.empty((P, 2)), np.empty((P, 2)),
-                   np.empty((P, 2)), np.empty((E, 2)))
-        p0 = pos[i].copy()
-        v0 = vel[i].copy()
-        t0 = vt[i].copy()
-        before = _com(pos[i], n)
-        unstable[i] = False
-        for _ in range(SUBSTEPS):
-            c = _substep(n, ne, ea, r0, spring_k[b], edge_surface[b], goal, n_surface[b], surface_points[b],
-                         surface_edges[b], n_pairs[b], pairs[b], n_rigid[b], rigid_edges[b], terrain,
-                         pos[i], vel[i], vt[i], scratch)
-            if c > n_surface[b]:
-                unstable[i] = True
-                pos[i] = p0
-                vel[i] = v0
-                vt[i] = t0
-                break
-        _observe(pos[i], vel[i], n, obs[i])
-        com[i] = _com(pos[i], n)
-        dx[i] = com[i] - before
+    terrain = (tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero)
+    b = body[i]
+    n = n_points[b]
+    ne = n_edges[b]
+    ea = edges[b]
+    r0 = rest0[b]
+    goal = r0.copy()
+    count = np.zeros(E, dtype=np.int64)
+    for m in range(n_act[b]):
+        for e in act_edges[b, m]:
+            goal[e] = 0.0
+    for m in range(n_act[b]):
+        for e in act_edges[b, m]:
+            goal[e] += actions[i, m]
+            count[e] += 1
+    for e in range(ne):
+        if count[e] > 0:
+            goal[e] *= r0[e] / count[e]
+    scratch = (np.zeros((P, 2)), np.empty((S, 4)), np.empty(E), np.empty((E, 2)), np.empty((P, 2)),
+               np.empty((P, 2)), np.empty((P, 2)), np.empty((P, 2)), np.empty((P, 2)), np.empty((P, 2)),
+               np.empty((P, 2)), np.empty((E, 2)))
+    p0 = pos[i].copy()
+    v0 = vel[i].copy()
+    t0 = vt[i].copy()
+    before = _com(pos[i], n)
+    unstable[i] = False
+    for _ in range(SUBSTEPS):
+        c = _substep(n, ne, ea, r0, spring_k[b], edge_surface[b], goal, n_surface[b], surface_points[b],
+                     surface_edges[b], n_pairs[b], pairs[b], n_rigid[b], rigid_edges[b], terrain,
+                     pos[i], vel[i], vt[i], scratch)
+        if c > n_surface[b]:
+            unstable[i] = True
+            pos[i] = p0
+            vel[i] = v0
+            vt[i] = t0
+            break
+    _observe(pos[i], vel[i], n, obs[i])
+    com[i] = _com(pos[i], n)
+    dx[i] = com[i] - before
+
+
+@numba.njit(cache=True, error_model="numpy", boundscheck=False, parallel=True)
+def step_parallel(active, body, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, n_act,
+                  act_edges, n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges, tpos,
+                  tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero, obs, dx, com, unstable):
+    """:func:`_step_env` for every active environment, one thread per environment."""
+    for i in numba.prange(active.shape[0]):
+        if active[i]:
+            _step_env(i, body, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, n_act,
+                      act_edges, n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges, tpos,
+                      tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero, obs, dx, com, unstable)
+
+
+@_jit
+def step_serial(active, *args):
+    """:func:`_step_env` for every active environment in turn (small batches: no threads to wake)."""
+    for i in range(active.shape[0]):
+        if active[i]:
+            _step_env(i, *args)
 
 
 @numba.njit(cache=True, error_model="numpy", boundscheck=False)
