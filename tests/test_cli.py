@@ -35,7 +35,8 @@ def test_info_shows_parameters_with_types_and_descriptions():
     rows = {line.split("│")[0].strip(): line for line in result.stdout.splitlines() if "│" in line}
     assert {"survivors", "mutation_rate", "attempts"} <= set(rows)
     assert "int" in rows["survivors"] and "float" in rows["mutation_rate"]
-    assert invoke("info", "walker").stdout.rstrip().endswith("no parameters")
+    assert invoke("info", "simple").stdout.rstrip().endswith("no parameters")
+    assert "voxel" in invoke("info", "walker").stdout
     bad = invoke("info", "gdaa")
     assert bad.exit_code == 2 and "gda" in bad.stderr
 

@@ -6,6 +6,7 @@ with ``benchmarks/evogym_record.py`` (CI never needs Evolution Gym).
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import gymnasium
@@ -171,3 +172,21 @@ def test_import_registers_v2_without_loading_numba():
 
     code = "import sys, gymnasium, gdabench; assert 'gdabench/Walker-v2' in gymnasium.registry; assert 'numba' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_resuming_a_run_scored_by_another_engine_refuses_to_mix_them(tmp_path):
+    import json
+
+    experiment = gdabench.Experiment(
+        designers=(gdabench.PluginChoice("random"),), envs=gdabench.PluginChoice("walker"),
+        controller=gdabench.PluginChoice("open-loop", {"trials": 1}), shape=(3, 3), population=2, budget=2,
+    )
+    run = run_experiment(experiment, tmp_path / "run")
+    meta_path = run.path / "run.json"
+    meta = json.loads(meta_path.read_text())
+    meta["envs"]["walker"]["version"] = meta["env_version"] = "gdabench/Walker-v1"  # as a run made before v2
+    meta_path.write_text(json.dumps(meta))
+    before = (run.path / "evaluations.parquet").read_bytes()
+    with pytest.raises(ConfigError, match="scored by gdabench/Walker-v1, but 'walker' now builds gdabench/Walker-v2"):
+        run_experiment(dataclasses.replace(experiment, seeds=(0, 1)), run.path, resume=True)
+    assert (run.path / "evaluations.parquet").read_bytes() == before

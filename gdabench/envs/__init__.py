@@ -17,7 +17,7 @@ def gdabench_environments() -> list[EnvironmentSpec]:
         EnvironmentSpec(
             name="walker",
             factory="gdabench.envs.walker.env:Walker",
-            description="Evolution Gym's Walker-v0 on a pymunk soft-voxel simulator calibrated against it (gdabench/Walker-v1); needs a controller",
+            description="Evolution Gym's Walker-v0 on its own physics, batched (gdabench/Walker-v2; engine=pymunk: gdabench/Walker-v1); needs a controller",
             requires_controller=True,
         ),
         EnvironmentSpec(

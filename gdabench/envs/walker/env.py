@@ -32,7 +32,11 @@ def make_walker(body: Body, engine: str = "voxel", **kwargs: Any) -> gymnasium.E
 
 
 class Walker(ControlledEnvironment):
-    """Evolution Gym's Walker-v0; needs a controller.  ``engine``: ``voxel`` or ``pymunk``."""
+    """Evolution Gym's Walker-v0; needs a controller.
+
+    Parameters:
+        engine: the simulator: voxel (Evolution Gym's physics, gdabench/Walker-v2) or pymunk (gdabench/Walker-v1)
+    """
 
     def __init__(self, *, shape: tuple[int, int] = (5, 5), engine: str = "voxel"):
         super().__init__(shape=shape)
