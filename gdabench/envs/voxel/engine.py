@@ -47,6 +47,9 @@ class BodyTables:
     pairs: np.ndarray  # (B, Q, 5): surface boxels i < j, grid neighbours?, corners of i (bits) not in j, of j not in i
     n_rigid: np.ndarray
     rigid_edges: np.ndarray  # (B, R, 4)
+    point_edges: np.ndarray  # (B, 2E): per point, its edges where it is end a, then where it is end b
+    point_start: np.ndarray  # (B, P + 1): where each point's run in point_edges starts
+    point_n_a: np.ndarray  # (B, P): how many of them are a ends
     init_pos: np.ndarray  # (B, P, 2)
 
     @property
@@ -131,6 +134,17 @@ def _pad(rows: Sequence[np.ndarray], shape: tuple[int, ...], dtype, fill=0) -> n
     return out
 
 
+def _incidence(obj: Object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each point's edges (as end a, then as end b, in edge order), where its run starts, its a count."""
+    runs, n_a = [], []
+    for p in range(len(obj.pos)):
+        ends_a = np.flatnonzero(obj.edge_ab[:, 0] == p)
+        runs.append(np.concatenate([ends_a, np.flatnonzero(obj.edge_ab[:, 1] == p)]))
+        n_a.append(len(ends_a))
+    start = np.concatenate([[0], np.cumsum([len(r) for r in runs])])
+    return np.concatenate(runs).astype(np.int64), start.astype(np.int64), np.array(n_a, dtype=np.int64)
+
+
 def _unshared(main: np.ndarray, ref: np.ndarray) -> int:
     """Bit mask of ``main``'s corners that ``ref`` does not share (the only ones tested for contact)."""
     return sum(1 << k for k in range(4) if main[k] not in ref)
@@ -166,6 +180,7 @@ def body_tables(bodies: Sequence[Body | np.ndarray | str], pad: BodyTables | Non
     Q = size(pair_rows, minimum=0 if pad is None else pad.pairs.shape[1])
     R = size(rigid_rows, minimum=0 if pad is None else pad.rigid_edges.shape[1])
     A = size(act_rows, minimum=0 if pad is None else pad.act_edges.shape[1])
+    incidence = [_incidence(o) for o in objs]
     i64 = np.int64
     return BodyTables(
         objects=objs,
@@ -184,6 +199,9 @@ def body_tables(bodies: Sequence[Body | np.ndarray | str], pad: BodyTables | Non
         pairs=_pad(pair_rows, (Q, 5), i64),
         n_rigid=np.array([len(r) for r in rigid_rows], dtype=i64),
         rigid_edges=_pad(rigid_rows, (R, 4), i64),
+        point_edges=_pad([inc[0] for inc in incidence], (2 * E,), i64),
+        point_start=_pad([inc[1] for inc in incidence], (P + 1,), i64),
+        point_n_a=_pad([inc[2] for inc in incidence], (P,), i64),
         init_pos=_pad([o.pos for o in objs], (P, 2), np.float64),
     )
 
@@ -223,6 +241,7 @@ def step(tables: BodyTables, terrain: Terrain, state: State, actions: np.ndarray
         active, state.body, np.ascontiguousarray(acts), new.pos, new.vel, new.vtrue, tables.n_points, tables.n_edges,
         tables.edges, tables.rest0, tables.spring_k, tables.edge_surface, tables.n_act, tables.act_edges,
         tables.n_surface, tables.surface_points, tables.surface_edges, tables.n_pairs, tables.pairs, tables.n_rigid,
-        tables.rigid_edges, *terrain.arrays(), obs, dx, com, unstable,
+        tables.rigid_edges, tables.point_edges, tables.point_start, tables.point_n_a, *terrain.arrays(), obs, dx, com,
+        unstable,
     )
     return new, StepOutput(obs=obs, dx=dx, com=com, unstable=unstable)

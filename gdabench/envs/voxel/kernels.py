@@ -34,12 +34,14 @@ BAND_RIGID = 0.03
 PARALLEL_TOL = 0.0001
 
 _jit = numba.njit(cache=True, error_model="numpy", boundscheck=False)
+#: small functions called in the innermost loops: inlined by Numba (a call passing a dozen arrays costs more than they do)
+_inline = numba.njit(cache=True, error_model="numpy", boundscheck=False, inline="always")
 
 #: which two edges (of top, right, bottom, left) meet at each corner (top-left, top-right, bottom-right, bottom-left)
 CORNER_EDGES = np.array([[0, 3], [0, 1], [2, 1], [2, 3]], dtype=np.int64)
 
 
-@_jit
+@_inline
 def _intersecting(pa, ea, pb, eb, ia, ib):
     """``PhysicsEngine::get_intersecting``: do segment ``ia`` (points ``pa``) and ``ib`` (``pb``) cross?"""
     a1x = pa[ea[ia, 0], 0]
@@ -60,7 +62,7 @@ def _intersecting(pa, ea, pb, eb, ia, ib):
     return 0.0 <= t and t <= 1.0 and 0.0 <= s and s <= 1.0
 
 
-@_jit
+@_inline
 def _dist_point_edge(px, py, pe, ee, ie):
     ax = pe[ee[ie, 0], 0]
     ay = pe[ee[ie, 0], 1]
@@ -74,25 +76,26 @@ def _dist_point_edge(px, py, pe, ee, ie):
     return abs(bx * sy - sx * by) / base
 
 
-@_jit
-def _inside(px, py, pr, corners, box):
+@_inline
+def _inside(px, py, pr, corners, r, box):
     """``Boxel::point_in_boxel`` with corners (top-left, top-right, bottom-right, bottom-left).
 
     Its test passes a point in either triangle (tl, tr, br) or (tl, bl, br), and any point on the
-    line through br and tl (``c == 0``).  ``box`` is the boxel's bounding box: a point outside it
+    line through br and tl (``c == 0``).  ``box[r]`` is the boxel's bounding box: a point outside it
     can only pass through that line, which is all that is computed then (same answers, faster).
+    Tables and row indices are passed rather than row views, which cost reference counting.
     """
-    tlx = pr[corners[0], 0] - px
-    tly = pr[corners[0], 1] - py
-    brx = pr[corners[2], 0] - px
-    bry = pr[corners[2], 1] - py
+    tlx = pr[corners[r, 0], 0] - px
+    tly = pr[corners[r, 0], 1] - py
+    brx = pr[corners[r, 2], 0] - px
+    bry = pr[corners[r, 2], 1] - py
     c = brx * tly - bry * tlx
-    if px < box[0] or px > box[2] or py < box[1] or py > box[3]:
+    if px < box[r, 0] or px > box[r, 2] or py < box[r, 1] or py > box[r, 3]:
         return c == 0.0
-    trx = pr[corners[1], 0] - px
-    try_ = pr[corners[1], 1] - py
-    blx = pr[corners[3], 0] - px
-    bly = pr[corners[3], 1] - py
+    trx = pr[corners[r, 1], 0] - px
+    try_ = pr[corners[r, 1], 1] - py
+    blx = pr[corners[r, 3], 0] - px
+    bly = pr[corners[r, 3], 1] - py
     a = tlx * try_ - tly * trx
     b = trx * bry - try_ * brx
     if c * a >= 0.0 and c * b >= 0.0:
@@ -104,7 +107,7 @@ def _inside(px, py, pr, corners, box):
 
 
 @_jit
-def _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, pr, er, surf_r, vr, fr, apply_r, times):
+def _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, r, pr, er, surf_r, vr, fr, apply_r, times):
     """``PhysicsEngine::resolve_point_boxel_collisions``: push point ``p`` of a boxel out of another.
 
     ``e1``/``e2``: the main boxel's two edges that meet at ``p``.  ``pm``/``em``/``vm``/``fm``: the
@@ -117,7 +120,7 @@ def _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, pr, er, surf_r
     best = -1
     best_d = 0.0
     for k in range(4):
-        e = ref_edges[k]
+        e = ref_edges[r, k]
         if not surf_r[e]:
             continue
         if _intersecting(pm, em, pr, er, e1, e) or _intersecting(pm, em, pr, er, e2, e):
@@ -180,21 +183,21 @@ def _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, pr, er, surf_r
             fr[b, 1] -= ffy / 2
 
 
-@_jit
-def _resolve_boxels(main_points, main_edges, pm, em, vm, fm, apply_m,
-                    ref_points, ref_edges, ref_box, pr, er, surf_r, vr, fr, apply_r, corners, times):
-    """``PhysicsEngine::resolve_boxel_collisions``: every corner of ``main`` inside ``ref`` is pushed out.
+@_inline
+def _resolve_boxels(main_points, main_edges, m, pm, em, vm, fm, apply_m,
+                    ref_points, ref_edges, ref_box, r, pr, er, surf_r, vr, fr, apply_r, corners, times):
+    """``PhysicsEngine::resolve_boxel_collisions``: every corner of boxel ``m`` inside boxel ``r`` is pushed out.
 
     ``corners``: bit ``k`` set when corner ``k`` is tested (corners shared by the two boxels never are).
     """
     for k in range(4):
         if not (corners >> k) & 1:
             continue
-        p = main_points[k]
-        if _inside(pm[p, 0], pm[p, 1], pr, ref_points, ref_box):
-            e1 = main_edges[CORNER_EDGES[k, 0]]
-            e2 = main_edges[CORNER_EDGES[k, 1]]
-            _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, pr, er, surf_r, vr, fr, apply_r, times)
+        p = main_points[m, k]
+        if _inside(pm[p, 0], pm[p, 1], pr, ref_points, r, ref_box):
+            e1 = main_edges[m, CORNER_EDGES[k, 0]]
+            e2 = main_edges[m, CORNER_EDGES[k, 1]]
+            _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, r, pr, er, surf_r, vr, fr, apply_r, times)
 
 
 @_jit
@@ -208,11 +211,13 @@ def _overlap(bb, i, bt, j):
 
 
 @_jit
-def _slope(xp, xv, ne, ea, rest, k, cforce, n, fe, out_a):
-    """``PhysicsEngine::get_pos_vel_slope``: accelerations of the robot's points (mass 1) at one RK4 stage."""
-    for i in range(n):
-        out_a[i, 0] = 0.0
-        out_a[i, 1] = 0.0
+def _slope(xp, xv, ne, ea, rest, k, cforce, n, fe, inc, start, n_a, out_a):
+    """``PhysicsEngine::get_pos_vel_slope``: accelerations of the robot's points (mass 1) at one RK4 stage.
+
+    Spring forces are gathered per point from ``inc`` (its edges where it is end ``a``, then where it
+    is end ``b``, each in edge order): the same additions in the same order as Evolution Gym's scatter
+    over all ``a`` ends, then all ``b`` ends.
+    """
     for j in range(ne):
         a = ea[j, 0]
         b = ea[j, 1]
@@ -222,17 +227,18 @@ def _slope(xp, xv, ne, ea, rest, k, cforce, n, fe, out_a):
         mag = (dist - rest[j]) * k[j] / dist
         fe[j, 0] = dx * mag
         fe[j, 1] = dy * mag
-    for j in range(ne):
-        a = ea[j, 0]
-        out_a[a, 0] -= fe[j, 0]
-        out_a[a, 1] -= fe[j, 1]
-    for j in range(ne):
-        b = ea[j, 1]
-        out_a[b, 0] += fe[j, 0]
-        out_a[b, 1] += fe[j, 1]
     for i in range(n):
-        fx = out_a[i, 0] + xv[i, 0] * -DRAG
-        fy = out_a[i, 1] + xv[i, 1] * -DRAG
+        fx = 0.0
+        fy = 0.0
+        first_b = start[i] + n_a[i]
+        for m in range(start[i], first_b):
+            fx -= fe[inc[m], 0]
+            fy -= fe[inc[m], 1]
+        for m in range(first_b, start[i + 1]):
+            fx += fe[inc[m], 0]
+            fy += fe[inc[m], 1]
+        fx = fx + xv[i, 0] * -DRAG
+        fy = fy + xv[i, 1] * -DRAG
         fy = fy + 1.0 * -GRAVITY
         fx = fx + cforce[i, 0]
         fy = fy + cforce[i, 1]
@@ -246,7 +252,8 @@ def _slope(xp, xv, ne, ea, rest, k, cforce, n, fe, out_a):
 
 
 @_jit
-def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, rig, terrain, pos, vel, vt, s):
+def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, rig, inc, start, n_a, terrain, pos, vel,
+             vt, s):
     """``Environment::step``: one physics update of dt 1e-4.  Returns the count of overlapping
     non-adjacent surface boxel pairs (ordered, as Evolution Gym counts them) seen at its start."""
     tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero = terrain
@@ -274,10 +281,8 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
         if pairs[q, 2] == 0:
             count += 2
         # the bounding-box tree meets a pair of one object twice, as (i, j) and as (j, i)
-        _resolve_boxels(sbp[i], sbe[i], pos, ea, vt, cf, True, sbp[j], sbe[j], bb[j], pos, ea, esurf, vt, cf, True,
-                        pairs[q, 3], 2)
-        _resolve_boxels(sbp[j], sbe[j], pos, ea, vt, cf, True, sbp[i], sbe[i], bb[i], pos, ea, esurf, vt, cf, True,
-                        pairs[q, 4], 2)
+        _resolve_boxels(sbp, sbe, i, pos, ea, vt, cf, True, sbp, sbe, bb, j, pos, ea, esurf, vt, cf, True, pairs[q, 3], 2)
+        _resolve_boxels(sbp, sbe, j, pos, ea, vt, cf, True, sbp, sbe, bb, i, pos, ea, esurf, vt, cf, True, pairs[q, 4], 2)
     ncol = tcol_start.shape[0] - 1
     for q in range(ns):
         if math.isnan(bb[q, 0]) or math.isnan(bb[q, 2]):
@@ -289,10 +294,10 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
                 t = tcol_boxel[m]
                 if not _overlap(bb, q, tbb, t):
                     continue
-                _resolve_boxels(sbp[q], sbe[q], pos, ea, vt, cf, True, tbp[t], tbe[t], tbb[t], tpos, tedge, tsurf, tzero,
-                                tzero, False, 15, 1)
-                _resolve_boxels(tbp[t], tbe[t], tpos, tedge, tzero, tzero, False, sbp[q], sbe[q], bb[q], pos, ea, esurf, vt,
-                                cf, True, 15, 1)
+                _resolve_boxels(sbp, sbe, q, pos, ea, vt, cf, True, tbp, tbe, tbb, t, tpos, tedge, tsurf, tzero, tzero,
+                                False, 15, 1)
+                _resolve_boxels(tbp, tbe, t, tpos, tedge, tzero, tzero, False, sbp, sbe, bb, q, pos, ea, esurf, vt, cf,
+                                True, 15, 1)
     # rest lengths re-anchored towards their goals
     for j in range(ne):
         dx = pos[ea[j, 0], 0] - pos[ea[j, 1], 0]
@@ -305,7 +310,7 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
         x0[i, 1] = pos[i, 1]
         v0[i, 0] = vel[i, 0]
         v0[i, 1] = vel[i, 1]
-    _slope(x0, v0, ne, ea, rest, k, cf, n, fe, acc)
+    _slope(x0, v0, ne, ea, rest, k, cf, n, fe, inc, start, n_a, acc)
     for i in range(n):
         for c in range(2):
             kp = v0[i, c] * DT
@@ -314,7 +319,7 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
             sv[i, c] = kv
             xs[i, c] = x0[i, c] + kp * 0.5
             vs[i, c] = v0[i, c] + kv * 0.5
-    _slope(xs, vs, ne, ea, rest, k, cf, n, fe, acc)
+    _slope(xs, vs, ne, ea, rest, k, cf, n, fe, inc, start, n_a, acc)
     for i in range(n):
         for c in range(2):
             kp = vs[i, c] * DT
@@ -323,7 +328,7 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
             sv[i, c] = sv[i, c] + 2 * kv
             xs[i, c] = x0[i, c] + kp * 0.5
             vs[i, c] = v0[i, c] + kv * 0.5
-    _slope(xs, vs, ne, ea, rest, k, cf, n, fe, acc)
+    _slope(xs, vs, ne, ea, rest, k, cf, n, fe, inc, start, n_a, acc)
     for i in range(n):
         for c in range(2):
             kp = vs[i, c] * DT
@@ -332,7 +337,7 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
             sv[i, c] = sv[i, c] + 2 * kv
             xs[i, c] = x0[i, c] + kp
             vs[i, c] = v0[i, c] + kv
-    _slope(xs, vs, ne, ea, rest, k, cf, n, fe, acc)
+    _slope(xs, vs, ne, ea, rest, k, cf, n, fe, inc, start, n_a, acc)
     for i in range(n):
         for c in range(2):
             pos[i, c] = x0[i, c] + (sp[i, c] + vs[i, c] * DT) / 6
@@ -422,8 +427,8 @@ def _observe(pos, vel, n, out):
 
 @_jit
 def _step_env(i, body, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, n_act, act_edges,
-              n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges, tpos, tedge, tsurf, tbp,
-              tbe, tbb, tcol_start, tcol_boxel, tzero, obs, dx, com, unstable):
+              n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges, point_edges, point_start,
+              point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero, obs, dx, com, unstable):
     """One env step (30 updates) of environment ``i`` (body ``body[i]``), in place.
 
     An environment that becomes unstable is put back to its state before the step, as Evolution
@@ -461,8 +466,8 @@ def _step_env(i, body, actions, pos, vel, vt, n_points, n_edges, edges, rest0, s
     unstable[i] = False
     for _ in range(SUBSTEPS):
         c = _substep(n, ne, ea, r0, spring_k[b], edge_surface[b], goal, n_surface[b], surface_points[b],
-                     surface_edges[b], n_pairs[b], pairs[b], n_rigid[b], rigid_edges[b], terrain,
-                     pos[i], vel[i], vt[i], scratch)
+                     surface_edges[b], n_pairs[b], pairs[b], n_rigid[b], rigid_edges[b], point_edges[b],
+                     point_start[b], point_n_a[b], terrain, pos[i], vel[i], vt[i], scratch)
         if c > n_surface[b]:
             unstable[i] = True
             pos[i] = p0
@@ -476,14 +481,16 @@ def _step_env(i, body, actions, pos, vel, vt, n_points, n_edges, edges, rest0, s
 
 @numba.njit(cache=True, error_model="numpy", boundscheck=False, parallel=True)
 def step_parallel(active, body, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, n_act,
-                  act_edges, n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges, tpos,
-                  tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero, obs, dx, com, unstable):
+                  act_edges, n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges,
+                  point_edges, point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero,
+                  obs, dx, com, unstable):
     """:func:`_step_env` for every active environment, one thread per environment."""
     for i in numba.prange(active.shape[0]):
         if active[i]:
             _step_env(i, body, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, n_act,
-                      act_edges, n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges, tpos,
-                      tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero, obs, dx, com, unstable)
+                      act_edges, n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges,
+                      point_edges, point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel,
+                      tzero, obs, dx, com, unstable)
 
 
 @_jit
