@@ -29,6 +29,11 @@ CASES = {
                 lambda t, n: 1.1 + 0.5 * np.sin(2 * math.pi * t / 20 + np.arange(n))),
     "folding": ("44444/40000/44444/00004/44444", (1, 1), 150,
                 lambda t, n: 1.1 + 0.5 * np.sin(2 * math.pi * t / 12 + 2.0 * np.arange(n))),
+    # walker_fidelity's wave40 gait (phase = column index, vertical actuators a quarter period later):
+    # Evolution Gym declares this body unstable at step 63
+    "unstable": ("11111/44444/40404/40404/40404", (1, 1), 80,
+                 lambda t, n: 1.1 + 0.5 * np.sin(2 * math.pi * t / 40 - np.array([0, 1, 2, 3, 4, 0, 2, 4, 0, 2, 4, 0, 2, 4])
+                                                 - math.pi / 2)),
 }
 
 

@@ -143,7 +143,7 @@ def play(env: gymnasium.Env, actions: np.ndarray, com_x: Callable[[], float]) ->
         if steps % TRACE_EVERY == 0:
             trace.append(com_x())
         if terminated:
-            unstable = "unstable" in info or reward < -1.0
+            unstable = bool("unstable" in info or reward < -1.0)
             break
     seconds = time.perf_counter() - start
     return {"return": total, "unstable": unstable, "trace": trace, "steps": steps, "seconds": seconds}

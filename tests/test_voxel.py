@@ -22,7 +22,7 @@ from gdabench.envs.voxel.walker import WalkerBatch
 from gdabench.runner import compare as run_experiment
 
 FIXTURE = Path(__file__).parent / "fixtures" / "voxel_parity.npz"
-CASES = ("falling-block", "lone-actuator", "standing", "walking", "folding")
+CASES = ("falling-block", "lone-actuator", "standing", "walking", "folding", "unstable")
 WALKER = "33333/40004/40004"
 MIXED = ["11111/13331/40004/40004/40004", "33333/33333/33333/33333/33333", "44444/40000/44444/00004/44444",
          "22222/33333/30003/40004/40004", "00000/00000/00000/00000/34343", "10001/13331/13331/14441/10001"]
@@ -55,8 +55,14 @@ def test_the_first_ten_steps_match_evolution_gym_to_1e6(name):
 def test_longer_trajectories_stay_within_a_micrometre_of_evolution_gym():
     for name in CASES:
         pos, _, unstable, theirs = replay(name, 1000)
-        assert len(pos) == len(theirs["pos"]) and not unstable.any()
+        assert len(pos) == len(theirs["pos"]) and np.array_equal(unstable, theirs["unstable"]), name
         assert np.abs(pos - theirs["pos"]).max() < 1e-6, name
+
+
+def test_a_body_is_declared_unstable_at_the_step_evolution_gym_declares_it():
+    pos, _, unstable, theirs = replay("unstable", 1000)
+    assert np.flatnonzero(unstable).tolist() == [62] == np.flatnonzero(theirs["unstable"]).tolist()
+    assert np.array_equal(pos[62], pos[61])  # the step is undone, as Evolution Gym keeps its last snapshot
 
 
 def trajectories(tables: engine.BodyTables, body: np.ndarray, steps: int = 30) -> np.ndarray:
