@@ -20,6 +20,9 @@ import sys
 
 import numpy as np
 
+#: the columns of the "unstable" case's actuators, in action order
+WAVE40_COLUMNS = np.array([0, 1, 2, 3, 4, 0, 2, 4, 0, 2, 4, 0, 2, 4])
+
 #: name -> (body rows top to bottom, (x, y) in voxels, steps, action(t, n_actuators) -> array)
 CASES = {
     "falling-block": ("222/232/222", (3, 6), 60, lambda t, n: np.ones(n)),
@@ -32,15 +35,14 @@ CASES = {
     # walker_fidelity's wave40 gait (phase = column index, vertical actuators a quarter period later):
     # Evolution Gym declares this body unstable at step 63
     "unstable": ("11111/44444/40404/40404/40404", (1, 1), 80,
-                 lambda t, n: 1.1 + 0.5 * np.sin(2 * math.pi * t / 40 - np.array([0, 1, 2, 3, 4, 0, 2, 4, 0, 2, 4, 0, 2, 4])
-                                                 - math.pi / 2)),
+                 lambda t, n: 1.1 + 0.5 * np.sin(2 * math.pi * t / 40 - WAVE40_COLUMNS - math.pi / 2)),
 }
 
 
 def record(name: str) -> dict[str, np.ndarray]:
+    import evogym.envs
     from evogym import EvoSim, EvoWorld
     from evogym.simulator_cpp import Sim
-    import evogym.envs
 
     rows, (x, y), steps, action = CASES[name]
     body = np.array([[int(c) for c in r] for r in rows.split("/")])

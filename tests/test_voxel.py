@@ -41,7 +41,8 @@ def replay(name: str, steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, d
         pos.append(state.pos[0, :n].copy())
         vel.append(state.vel[0, :n].copy())
         unstable.append(bool(out.unstable[0]))
-    return np.array(pos), np.array(vel), np.array(unstable), {k: data[f"{name}.{k}"][:steps] for k in ("pos", "vel", "unstable")}
+    theirs = {k: data[f"{name}.{k}"][:steps] for k in ("pos", "vel", "unstable")}
+    return np.array(pos), np.array(vel), np.array(unstable), theirs
 
 
 @pytest.mark.parametrize("name", CASES)
@@ -176,7 +177,8 @@ def test_import_registers_v2_without_loading_numba():
     import subprocess
     import sys
 
-    code = "import sys, gymnasium, gdabench; assert 'gdabench/Walker-v2' in gymnasium.registry; assert 'numba' not in sys.modules"
+    code = ("import sys, gymnasium, gdabench; assert 'gdabench/Walker-v2' in gymnasium.registry; "
+            "assert 'numba' not in sys.modules")
     subprocess.run([sys.executable, "-c", code], check=True)
 
 

@@ -12,7 +12,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Sequence
+from typing import Any, Sequence
 
 import numba
 import numpy as np
@@ -236,7 +236,7 @@ def step(tables: BodyTables, terrain: Terrain, state: State, actions: np.ndarray
     dx = np.zeros(n)
     com = np.zeros(n)
     unstable = np.zeros(n, dtype=np.bool_)
-    kernel = kernels.step_parallel if n >= PARALLEL_FROM and numba.get_num_threads() > 1 else kernels.step_serial
+    kernel: Any = kernels.step_parallel if n >= PARALLEL_FROM and numba.get_num_threads() > 1 else kernels.step_serial
     kernel(
         active, state.body, np.ascontiguousarray(acts), new.pos, new.vel, new.vtrue, tables.n_points, tables.n_edges,
         tables.edges, tables.rest0, tables.spring_k, tables.edge_surface, tables.n_act, tables.act_edges,

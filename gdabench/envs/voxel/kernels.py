@@ -34,7 +34,7 @@ BAND_RIGID = 0.03
 PARALLEL_TOL = 0.0001
 
 _jit = numba.njit(cache=True, error_model="numpy", boundscheck=False)
-#: small functions called in the innermost loops: inlined by Numba (a call passing a dozen arrays costs more than they do)
+#: small functions of the innermost loops, inlined by Numba: a call passing a dozen arrays costs more than they do
 _inline = numba.njit(cache=True, error_model="numpy", boundscheck=False, inline="always")
 
 #: which two edges (of top, right, bottom, left) meet at each corner (top-left, top-right, bottom-right, bottom-left)
@@ -281,8 +281,10 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
         if pairs[q, 2] == 0:
             count += 2
         # the bounding-box tree meets a pair of one object twice, as (i, j) and as (j, i)
-        _resolve_boxels(sbp, sbe, i, pos, ea, vt, cf, True, sbp, sbe, bb, j, pos, ea, esurf, vt, cf, True, pairs[q, 3], 2)
-        _resolve_boxels(sbp, sbe, j, pos, ea, vt, cf, True, sbp, sbe, bb, i, pos, ea, esurf, vt, cf, True, pairs[q, 4], 2)
+        _resolve_boxels(sbp, sbe, i, pos, ea, vt, cf, True, sbp, sbe, bb, j, pos, ea, esurf, vt, cf, True,
+                        pairs[q, 3], 2)
+        _resolve_boxels(sbp, sbe, j, pos, ea, vt, cf, True, sbp, sbe, bb, i, pos, ea, esurf, vt, cf, True,
+                        pairs[q, 4], 2)
     ncol = tcol_start.shape[0] - 1
     for q in range(ns):
         if math.isnan(bb[q, 0]) or math.isnan(bb[q, 2]):

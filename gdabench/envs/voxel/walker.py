@@ -112,24 +112,28 @@ class WalkerEnv(gymnasium.Env):
         obj = self.batch.tables.objects[0]
         self.actuator_voxels = actuator_voxels(obj)
         self._n = len(obj.pos)
-        self._obs = self.batch.reset()[0, : self.observation_space.shape[0]]
-        self._renderer = None
+        self._size = self.batch.tables.obs_size(0)
+        self._n_act = int(self.batch.tables.n_act[0])
+        self._obs = self.batch.reset()[0, : self._size]
+        self._renderer: Any = None
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)  # the simulation is deterministic: the seed changes nothing
-        self._obs = self.batch.reset()[0, : self.observation_space.shape[0]]
+        self._obs = self.batch.reset()[0, : self._size]
         return self._obs.copy(), {}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         ratios = np.asarray(action, dtype=np.float64).reshape(-1)
-        if ratios.shape != self.action_space.shape:
-            raise ValueError(f"the walker expects {self.action_space.shape[0]} actions (one per actuator), got {ratios.shape[0]}")
+        if ratios.shape != (self._n_act,):
+            raise ValueError(f"the walker expects {self._n_act} actions (one per actuator), got {ratios.shape[0]}")
         if not np.isfinite(ratios).all():
             raise ValueError("walker actions must be finite numbers")
         if self.batch.done[0]:
             raise RuntimeError("step() after the episode ended: call reset()")
         obs, reward, terminated, unstable = self.batch.step(ratios[None])
-        self._obs = obs[0, : self.observation_space.shape[0]]
+        self._obs = obs[0, : self._size]
         info = {"unstable": "self-intersection"} if unstable[0] else {}
         return self._obs.copy(), float(reward[0]), bool(terminated[0]), False, info
 
@@ -153,7 +157,9 @@ class WalkerVectorEnv(VectorEnv):
 
     def __init__(self, num_envs: int, body: Any, max_episode_steps: int = MAX_EPISODE_STEPS, **kwargs: Any):
         if kwargs.get("render_mode") not in (None,):
-            raise ValueError("the vector walker does not render; use gymnasium.make('gdabench/Walker-v2', render_mode='rgb_array')")
+            raise ValueError(
+                "the vector walker does not render; use gymnasium.make('gdabench/Walker-v2', render_mode='rgb_array')"
+            )
         self.num_envs = int(num_envs)
         self.batch = WalkerBatch([body], envs_per_body=self.num_envs)
         self.single_action_space, self.single_observation_space = _spaces(self.batch.tables)
@@ -162,9 +168,9 @@ class WalkerVectorEnv(VectorEnv):
         self.max_episode_steps = max_episode_steps
         self._t = np.zeros(self.num_envs, dtype=np.int64)
         self._ended = np.zeros(self.num_envs, dtype=bool)
-        self._size = self.single_observation_space.shape[0]
+        self._size = self.batch.tables.obs_size(0)
 
-    def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None):
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
         self._t[:] = 0
         self._ended[:] = False
