@@ -76,26 +76,26 @@ def _dist_point_edge(px, py, pe, ee, ie):
     return abs(bx * sy - sx * by) / base
 
 
-@_inline
-def _inside(px, py, pr, corners, r, box):
-    """``Boxel::point_in_boxel`` with corners (top-left, top-right, bottom-right, bottom-left).
+@_jit
+def _inside(px, py, x0, y0, x1, y1, x2, y2, x3, y3, lox, loy, hix, hiy):
+    """``Boxel::point_in_boxel`` for corners top-left (x0, y0), top-right, bottom-right, bottom-left.
 
     Its test passes a point in either triangle (tl, tr, br) or (tl, bl, br), and any point on the
-    line through br and tl (``c == 0``).  ``box[r]`` is the boxel's bounding box: a point outside it
-    can only pass through that line, which is all that is computed then (same answers, faster).
-    Tables and row indices are passed rather than row views, which cost reference counting.
+    line through br and tl (``c == 0``).  (lox, loy, hix, hiy) is the boxel's bounding box: a point
+    outside it can only pass through that line, which is all that is computed then (same answers).
+    Scalars only: a call passing arrays costs reference counting in the innermost loop.
     """
-    tlx = pr[corners[r, 0], 0] - px
-    tly = pr[corners[r, 0], 1] - py
-    brx = pr[corners[r, 2], 0] - px
-    bry = pr[corners[r, 2], 1] - py
+    tlx = x0 - px
+    tly = y0 - py
+    brx = x2 - px
+    bry = y2 - py
     c = brx * tly - bry * tlx
-    if px < box[r, 0] or px > box[r, 2] or py < box[r, 1] or py > box[r, 3]:
+    if px < lox or px > hix or py < loy or py > hiy:
         return c == 0.0
-    trx = pr[corners[r, 1], 0] - px
-    try_ = pr[corners[r, 1], 1] - py
-    blx = pr[corners[r, 3], 0] - px
-    bly = pr[corners[r, 3], 1] - py
+    trx = x1 - px
+    try_ = y1 - py
+    blx = x3 - px
+    bly = y3 - py
     a = tlx * try_ - tly * trx
     b = trx * bry - try_ * brx
     if c * a >= 0.0 and c * b >= 0.0:
@@ -103,7 +103,6 @@ def _inside(px, py, pr, corners, r, box):
     d = tlx * bly - tly * blx
     e = blx * bry - bly * brx
     return c * d >= 0.0 and c * e >= 0.0
-
 
 
 @_jit
@@ -183,33 +182,6 @@ def _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, r, pr, er, sur
             fr[b, 1] -= ffy / 2
 
 
-@_inline
-def _resolve_boxels(main_points, main_edges, m, pm, em, vm, fm, apply_m,
-                    ref_points, ref_edges, ref_box, r, pr, er, surf_r, vr, fr, apply_r, corners, times):
-    """``PhysicsEngine::resolve_boxel_collisions``: every corner of boxel ``m`` inside boxel ``r`` is pushed out.
-
-    ``corners``: bit ``k`` set when corner ``k`` is tested (corners shared by the two boxels never are).
-    """
-    for k in range(4):
-        if not (corners >> k) & 1:
-            continue
-        p = main_points[m, k]
-        if _inside(pm[p, 0], pm[p, 1], pr, ref_points, r, ref_box):
-            e1 = main_edges[m, CORNER_EDGES[k, 0]]
-            e2 = main_edges[m, CORNER_EDGES[k, 1]]
-            _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, r, pr, er, surf_r, vr, fr, apply_r, times)
-
-
-@_jit
-def _overlap(bb, i, bt, j):
-    """``BoundingBox::in``: boxes (min x, min y, max x, max y) overlap or touch."""
-    if bb[i, 0] > bt[j, 2] or bb[i, 2] < bt[j, 0]:
-        return False
-    if bb[i, 1] > bt[j, 3] or bb[i, 3] < bt[j, 1]:
-        return False
-    return True
-
-
 @_jit
 def _slope(xp, xv, ne, ea, rest, k, cforce, n, fe, inc, start, n_a, out_a):
     """``PhysicsEngine::get_pos_vel_slope``: accelerations of the robot's points (mass 1) at one RK4 stage.
@@ -277,14 +249,24 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
         i = pairs[q, 0]
         j = pairs[q, 1]
         if bb[i, 0] > bb[j, 2] or bb[i, 2] < bb[j, 0] or bb[i, 1] > bb[j, 3] or bb[i, 3] < bb[j, 1]:
-            continue
+            continue  # BoundingBox::in: the boxes neither overlap nor touch
         if pairs[q, 2] == 0:
             count += 2
-        # the bounding-box tree meets a pair of one object twice, as (i, j) and as (j, i)
-        _resolve_boxels(sbp, sbe, i, pos, ea, vt, cf, True, sbp, sbe, bb, j, pos, ea, esurf, vt, cf, True,
-                        pairs[q, 3], 2)
-        _resolve_boxels(sbp, sbe, j, pos, ea, vt, cf, True, sbp, sbe, bb, i, pos, ea, esurf, vt, cf, True,
-                        pairs[q, 4], 2)
+        # PhysicsEngine::resolve_boxel_collisions both ways: every tested corner of one boxel inside the
+        # other is pushed out; the bounding-box tree meets a pair of one object twice, as (i, j) and (j, i)
+        for d in range(2):
+            m, r = (i, j) if d == 0 else (j, i)
+            mask = pairs[q, 3 + d]
+            cx0, cy0 = pos[sbp[r, 0], 0], pos[sbp[r, 0], 1]
+            cx1, cy1 = pos[sbp[r, 1], 0], pos[sbp[r, 1], 1]
+            cx2, cy2 = pos[sbp[r, 2], 0], pos[sbp[r, 2], 1]
+            cx3, cy3 = pos[sbp[r, 3], 0], pos[sbp[r, 3], 1]
+            for corner in range(4):
+                p = sbp[m, corner]
+                if (mask >> corner) & 1 and _inside(pos[p, 0], pos[p, 1], cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3,
+                                               bb[r, 0], bb[r, 1], bb[r, 2], bb[r, 3]):
+                    _resolve_point(p, sbe[m, CORNER_EDGES[corner, 0]], sbe[m, CORNER_EDGES[corner, 1]], pos, ea, vt, cf, True,
+                                   sbe, r, pos, ea, esurf, vt, cf, True, 2)
     ncol = tcol_start.shape[0] - 1
     for q in range(ns):
         if math.isnan(bb[q, 0]) or math.isnan(bb[q, 2]):
@@ -294,12 +276,29 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
         for c in range(c0, c1 + 1):
             for m in range(tcol_start[c], tcol_start[c + 1]):
                 t = tcol_boxel[m]
-                if not _overlap(bb, q, tbb, t):
-                    continue
-                _resolve_boxels(sbp, sbe, q, pos, ea, vt, cf, True, tbp, tbe, tbb, t, tpos, tedge, tsurf, tzero, tzero,
-                                False, 15, 1)
-                _resolve_boxels(tbp, tbe, t, tpos, tedge, tzero, tzero, False, sbp, sbe, bb, q, pos, ea, esurf, vt, cf,
-                                True, 15, 1)
+                if bb[q, 0] > tbb[t, 2] or bb[q, 2] < tbb[t, 0] or bb[q, 1] > tbb[t, 3] or bb[q, 3] < tbb[t, 1]:
+                    continue  # BoundingBox::in: the boxes neither overlap nor touch
+                # the robot's corners inside the terrain boxel, then the terrain's inside the robot's
+                cx0, cy0 = tpos[tbp[t, 0], 0], tpos[tbp[t, 0], 1]
+                cx1, cy1 = tpos[tbp[t, 1], 0], tpos[tbp[t, 1], 1]
+                cx2, cy2 = tpos[tbp[t, 2], 0], tpos[tbp[t, 2], 1]
+                cx3, cy3 = tpos[tbp[t, 3], 0], tpos[tbp[t, 3], 1]
+                for corner in range(4):
+                    p = sbp[q, corner]
+                    if _inside(pos[p, 0], pos[p, 1], cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3,
+                               tbb[t, 0], tbb[t, 1], tbb[t, 2], tbb[t, 3]):
+                        _resolve_point(p, sbe[q, CORNER_EDGES[corner, 0]], sbe[q, CORNER_EDGES[corner, 1]], pos, ea, vt, cf,
+                                       True, tbe, t, tpos, tedge, tsurf, tzero, tzero, False, 1)
+                cx0, cy0 = pos[sbp[q, 0], 0], pos[sbp[q, 0], 1]
+                cx1, cy1 = pos[sbp[q, 1], 0], pos[sbp[q, 1], 1]
+                cx2, cy2 = pos[sbp[q, 2], 0], pos[sbp[q, 2], 1]
+                cx3, cy3 = pos[sbp[q, 3], 0], pos[sbp[q, 3], 1]
+                for corner in range(4):
+                    p = tbp[t, corner]
+                    if _inside(tpos[p, 0], tpos[p, 1], cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3,
+                               bb[q, 0], bb[q, 1], bb[q, 2], bb[q, 3]):
+                        _resolve_point(p, tbe[t, CORNER_EDGES[corner, 0]], tbe[t, CORNER_EDGES[corner, 1]], tpos, tedge, tzero,
+                                       tzero, False, sbe, q, pos, ea, esurf, vt, cf, True, 1)
     # rest lengths re-anchored towards their goals
     for j in range(ne):
         dx = pos[ea[j, 0], 0] - pos[ea[j, 1], 0]
