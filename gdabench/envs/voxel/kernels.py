@@ -106,16 +106,19 @@ def _inside(px, py, x0, y0, x1, y1, x2, y2, x3, y3, lox, loy, hix, hiy):
 
 
 @_jit
-def _resolve_point(p, e1, e2, pm, em, vm, fm, apply_m, ref_edges, r, pr, er, surf_r, vr, fr, apply_r, times):
+def _resolve_point(p, main_edges, m, corner, pm, em, vm, fm, apply_m, ref_edges, r, pr, er, surf_r, vr, fr, apply_r,
+                   times):
     """``PhysicsEngine::resolve_point_boxel_collisions``: push point ``p`` of a boxel out of another.
 
-    ``e1``/``e2``: the main boxel's two edges that meet at ``p``.  ``pm``/``em``/``vm``/``fm``: the
-    main object's positions, edge ends, true velocities and collision forces; ``pr``/``er``/``vr``/
-    ``fr`` the reference boxel's object's.  ``apply_*`` is False for the terrain, whose points never
+    ``p`` is corner ``corner`` of boxel ``m`` (its edges: ``main_edges[m]``) and lies in boxel ``r``.
+    ``pm``/``em``/``vm``/``fm``: the main object's positions, edge ends, true velocities and collision
+    forces; ``pr``/``er``/``vr``/``fr`` the reference boxel's object's.  ``apply_*`` is False for the terrain, whose points never
     move.  The forces are added ``times`` times (Evolution Gym meets a pair of one object twice).
     """
     px = pm[p, 0]
     py = pm[p, 1]
+    e1 = main_edges[m, CORNER_EDGES[corner, 0]]
+    e2 = main_edges[m, CORNER_EDGES[corner, 1]]
     best = -1
     best_d = 0.0
     for k in range(4):
@@ -265,8 +268,7 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
                 p = sbp[m, corner]
                 if (mask >> corner) & 1 and _inside(pos[p, 0], pos[p, 1], cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3,
                                                bb[r, 0], bb[r, 1], bb[r, 2], bb[r, 3]):
-                    _resolve_point(p, sbe[m, CORNER_EDGES[corner, 0]], sbe[m, CORNER_EDGES[corner, 1]], pos, ea, vt, cf, True,
-                                   sbe, r, pos, ea, esurf, vt, cf, True, 2)
+                    _resolve_point(p, sbe, m, corner, pos, ea, vt, cf, True, sbe, r, pos, ea, esurf, vt, cf, True, 2)
     ncol = tcol_start.shape[0] - 1
     for q in range(ns):
         if math.isnan(bb[q, 0]) or math.isnan(bb[q, 2]):
@@ -287,8 +289,8 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
                     p = sbp[q, corner]
                     if _inside(pos[p, 0], pos[p, 1], cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3,
                                tbb[t, 0], tbb[t, 1], tbb[t, 2], tbb[t, 3]):
-                        _resolve_point(p, sbe[q, CORNER_EDGES[corner, 0]], sbe[q, CORNER_EDGES[corner, 1]], pos, ea, vt, cf,
-                                       True, tbe, t, tpos, tedge, tsurf, tzero, tzero, False, 1)
+                        _resolve_point(p, sbe, q, corner, pos, ea, vt, cf, True, tbe, t, tpos, tedge, tsurf, tzero,
+                                       tzero, False, 1)
                 cx0, cy0 = pos[sbp[q, 0], 0], pos[sbp[q, 0], 1]
                 cx1, cy1 = pos[sbp[q, 1], 0], pos[sbp[q, 1], 1]
                 cx2, cy2 = pos[sbp[q, 2], 0], pos[sbp[q, 2], 1]
@@ -297,8 +299,8 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
                     p = tbp[t, corner]
                     if _inside(tpos[p, 0], tpos[p, 1], cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3,
                                bb[q, 0], bb[q, 1], bb[q, 2], bb[q, 3]):
-                        _resolve_point(p, tbe[t, CORNER_EDGES[corner, 0]], tbe[t, CORNER_EDGES[corner, 1]], tpos, tedge, tzero,
-                                       tzero, False, sbe, q, pos, ea, esurf, vt, cf, True, 1)
+                        _resolve_point(p, tbe, t, corner, tpos, tedge, tzero, tzero, False, sbe, q, pos, ea, esurf, vt,
+                                       cf, True, 1)
     # rest lengths re-anchored towards their goals
     for j in range(ne):
         dx = pos[ea[j, 0], 0] - pos[ea[j, 1], 0]
