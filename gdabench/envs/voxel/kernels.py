@@ -113,7 +113,8 @@ def _resolve_point(p, main_edges, m, corner, pm, em, vm, fm, apply_m, ref_edges,
     ``p`` is corner ``corner`` of boxel ``m`` (its edges: ``main_edges[m]``) and lies in boxel ``r``.
     ``pm``/``em``/``vm``/``fm``: the main object's positions, edge ends, true velocities and collision
     forces; ``pr``/``er``/``vr``/``fr`` the reference boxel's object's.  ``apply_*`` is False for the
-    terrain, whose points never move.  The forces are added ``times`` times (Evolution Gym meets a pair of one object twice).
+    terrain, whose points never move.  The forces are added ``times`` times (Evolution Gym meets a
+    pair of one object twice).
     """
     px = pm[p, 0]
     py = pm[p, 1]
