@@ -51,6 +51,15 @@ def signature_parameters(factory: Callable[..., Any]) -> dict[str, inspect.Param
     return None
 
 
+def config_signature(config: type, *, more: bool = False) -> inspect.Signature:
+    """The signature to give an ``__init__(self, **params)`` that passes ``params`` to the dataclass
+    ``config``: its fields as keyword parameters, and ``**kwargs`` with ``more`` (the class's base
+    takes the rest, e.g. a designer's harness parameters)."""
+    own = [p.replace(kind=inspect.Parameter.KEYWORD_ONLY) for p in inspect.signature(config, eval_str=True).parameters.values()]
+    rest = [inspect.Parameter("kwargs", inspect.Parameter.VAR_KEYWORD)] if more else []
+    return inspect.Signature([inspect.Parameter("self", inspect.Parameter.POSITIONAL_OR_KEYWORD), *own, *rest])
+
+
 def convert(value: Any, annotation: Any) -> Any:
     """``value`` as ``annotation`` asks, or :class:`_Refused`."""
     if annotation is _EMPTY or annotation is Any or isinstance(annotation, str):

@@ -35,6 +35,8 @@ from torchrl.data import LazyTensorStorage, ReplayBuffer
 from torchrl.data.replay_buffers import SamplerWithoutReplacement
 from torchrl.objectives.value import GAE
 
+from ...torch_runtime import torch_threads
+
 from .config import PPOConfig
 from .envs import BodyEnvs, box_dims
 from .evaluation import evaluate_policy
@@ -106,17 +108,14 @@ class TrainResult:
 @contextlib.contextmanager
 def seeded_torch(seed: int, threads: int) -> Iterator[None]:
     """Seed torch's global RNG and pin threads and deterministic kernels, restoring all after."""
-    previous_threads = torch.get_num_threads()
     previous_deterministic = torch.are_deterministic_algorithms_enabled()
     previous_warn = torch.is_deterministic_algorithms_warn_only_enabled()
-    with torch.random.fork_rng(devices=[]):
+    with torch.random.fork_rng(devices=[]), torch_threads(threads):
         torch.manual_seed(seed)
-        torch.set_num_threads(threads)
         torch.use_deterministic_algorithms(True, warn_only=True)
         try:
             yield
         finally:
-            torch.set_num_threads(previous_threads)
             torch.use_deterministic_algorithms(previous_deterministic, warn_only=previous_warn)
 
 

@@ -123,7 +123,7 @@ class BayesianOptimization(Designer):
         """Indices of ``q`` distinct candidates, each the best of one joint posterior draw."""
         import torch
 
-        from ..gda.runtime import torch_threads  # one torch thread: a small GP runs tens of times faster than on two busy cores
+        from ...torch_runtime import torch_threads  # one torch thread: a small GP runs tens of times faster than on two busy cores
         from botorch.fit import fit_gpytorch_mll
         from botorch.generation.sampling import MaxPosteriorSampling
         from botorch.models import SingleTaskGP
