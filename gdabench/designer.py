@@ -9,7 +9,7 @@ harness checkpoints designers that way after every generation to resume killed r
 from __future__ import annotations
 
 import abc
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -49,6 +49,12 @@ class Designer(abc.ABC):
     @abc.abstractmethod
     def tell(self, bodies: Sequence[Body], rewards: Sequence[float]) -> None:
         """Receive the rewards of the bodies returned by the last :meth:`ask` (same order)."""
+
+    def lend_cores(self, borrow: Callable[[], bool]) -> None:
+        """Offer this designer the run's spare CPU cores: ``borrow()`` is True once its trial holds
+        one more core, which it keeps until the trial ends.  The harness calls this before a
+        trial's first generation (fresh or resumed); a designer that cannot use a second core
+        ignores it (the default)."""
 
     def proposal_info(self) -> list[Mapping[str, Any]]:
         """Extra result columns for each body of the last :meth:`ask` (e.g. how it was made).

@@ -54,6 +54,7 @@ class TrialHost:
             self.trial = Trial(spec, self.run_id, env, workdir)
         else:
             self.trial = Trial(spec, self.run_id, env, workdir, checkpoint.designer, checkpoint.next_generation, done)
+        self.trial.designer.lend_cores(cores.borrow)
         if self._executor is None:
             warm = [r for r in (spec.env.factory, spec.controller) if r is not None]
             self._executor = make_executor(self.execution, self.prebuilt, warm)

@@ -25,16 +25,44 @@ import torch
 
 from .backprop import FastUNet
 from .model import UNet, reset_parameters
-from .schedule import NoiseSchedule
+from .schedule import NoiseSchedule, make_schedule
 
 
 @dataclass(frozen=True)
-class TrainResult:
+class FitResult:
     """What one training run did: epochs run, mean loss of the last epoch, wall time."""
 
     epochs: int
     loss: float
     seconds: float
+
+
+@dataclass(frozen=True)
+class TrainerSpec:
+    """Everything that makes two trainers compute the same numbers (trainers and training
+    processes are shared by it)."""
+
+    schedule: tuple[str, int, float, float]  # make_schedule's arguments
+    shape: tuple[int, int]
+    lr: float
+    compile: bool
+    threads: int | None
+    device: str = "cpu"
+
+    def make(self) -> Trainer:
+        return Trainer(make_schedule(*self.schedule), shape=self.shape, lr=self.lr, device=self.device, compile=self.compile)
+
+
+#: trainers shared by the designers of one process (they run one after another): every
+#: generation starts from fresh weights anyway, and sharing compiles the step only once
+_TRAINERS: dict[TrainerSpec, Trainer] = {}
+
+
+def shared_trainer(spec: TrainerSpec) -> Trainer:
+    """This process's trainer for ``spec``, made on first use."""
+    if spec not in _TRAINERS:
+        _TRAINERS[spec] = spec.make()
+    return _TRAINERS[spec]
 
 
 def repeat_to(data: torch.Tensor, size: int) -> torch.Tensor:
@@ -165,7 +193,7 @@ class Trainer:
         dataset_size: int = 64,
         target_loss: float | None = None,
         stop: Callable[[], bool] | None = None,
-    ) -> TrainResult:
+    ) -> FitResult:
         """Train on ``data`` (n, 1, H, W encoded bodies) for ``epochs`` epochs.
 
         With ``target_loss`` training stops after the first epoch whose mean loss is at most
@@ -198,7 +226,7 @@ class Trainer:
             if target_loss is not None and epoch_loss <= target_loss:
                 break
         self.net.params.store()
-        return TrainResult(done, epoch_loss, time.perf_counter() - start)
+        return FitResult(done, epoch_loss, time.perf_counter() - start)
 
 
 @dataclass(frozen=True)
@@ -216,7 +244,7 @@ class TrainJob:
         return cls(data.tobytes(), data.shape, int(seed), tuple(sorted(fit.items())))
 
     def run(self, trainer: Trainer, generator: torch.Generator, stop: Callable[[], bool] | None = None,
-            initial: torch.Tensor | None = None) -> TrainResult:
+            initial: torch.Tensor | None = None) -> FitResult:
         """Train ``trainer`` from fresh weights drawn from ``generator`` (or from ``initial``, to warm-start)."""
         trainer.reset(generator)
         if initial is not None:
@@ -225,7 +253,7 @@ class TrainJob:
         data = torch.from_numpy(np.frombuffer(self.data, dtype=np.float32).reshape(self.data_shape).copy())
         return trainer.fit(data, generator=generator, stop=stop, **dict(self.fit))
 
-    def train(self, trainer: Trainer, stop: Callable[[], bool] | None = None) -> tuple[np.ndarray, np.ndarray, TrainResult]:
+    def train(self, trainer: Trainer, stop: Callable[[], bool] | None = None) -> tuple[np.ndarray, np.ndarray, FitResult]:
         """A fresh model trained from this job's own seed: its weights (training layout), the
         stream's state after training (where sampling goes on) and the result."""
         generator = torch.Generator().manual_seed(self.seed)
