@@ -31,7 +31,7 @@ from gdabench.designers.gda import speculation
 from gdabench.designers.gda.quotas import share_counts
 from gdabench.designers.gda.surrogate import ridge_predictor
 from gdabench.designers.gda.training import Trainer, TrainerSpec, TrainJob, repeat_to
-from gdabench.torch_runtime import torch_threads
+from gdabench.torch_runtime import resolve_device, torch_threads
 
 from gda_reference import RefUNet
 
@@ -501,7 +501,8 @@ def test_bad_parameters_are_one_line_errors(params, message):
 def test_asking_for_a_missing_gpu_is_a_clear_error():
     with pytest.raises(ConfigError, match="no CUDA GPU"):
         gda(device="cuda")
-    assert gda(device="auto").trainer.device.type == "cpu"
+    assert resolve_device("auto", "gda").type == "cpu"
+    assert len(run(gda(device="auto"), 2)[-1]) == 10  # trains and samples on the CPU
 
 
 def test_designer_state_drops_the_model_when_pickled():
