@@ -19,7 +19,7 @@ import pickle
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Mapping
 
 import pandas as pd
 
@@ -28,14 +28,12 @@ from .body import Body, as_body
 from .designer import Designer
 from .environment import Environment
 from .errors import DesignerError, GdabenchError, one_line
-from .execution.evaluation import COUNTED, DUPLICATE, INVALID, OK, EvalOutcome, EvalTask
+from .execution.evaluation import COUNTED, DUPLICATE, INVALID, OK, Evaluate, EvalTask
 from .plan import TrialSpec
 from .results import COLUMNS, Checkpoint, utc_now
 
 #: a designer that proposes nothing new for this many generations in a row is stopped
 MAX_STALE_GENERATIONS = 20
-
-Evaluate = Callable[[Sequence[EvalTask]], list[EvalOutcome]]
 
 
 @dataclass(frozen=True)

@@ -26,10 +26,10 @@ import pandas as pd
 from ..errors import GdabenchError, one_line
 from ..plan import TrialSpec
 from ..results import Checkpoint, RunDirectory
-from ..trial import Evaluate, GenerationResult, Trial
+from ..trial import GenerationResult, Trial
 from . import cores
 from .cache import EvaluationCache
-from .evaluation import EvalOutcome, EvalTask, instance
+from .evaluation import Evaluate, EvalOutcome, EvalTask, instance
 from .executor import Executor
 from .options import Execution, make_executor
 from .pool import death_message, exit_when_orphaned
