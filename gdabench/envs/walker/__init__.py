@@ -11,7 +11,7 @@ one-line error that names v1 (Gymnasium's rule: changed dynamics get a new versi
 
 Modules: ``mesh`` (body -> point masses and springs), ``sim`` (pymunk world and
 :class:`~gdabench.envs.walker.sim.WalkerPhysics`, every physical constant), ``gym_env`` (the
-Gymnasium environment), ``render`` (frames and GIFs), ``env`` (the gdabench environment
+Gymnasium environment), ``render`` (frames), ``env`` (the gdabench environment
 ``walker`` that scores bodies with a controller).
 """
 
