@@ -83,15 +83,6 @@ class Trial:
             self.n_evals, self.best = len(counted), float(done["best_so_far"].iloc[-1])
             self.clock0 -= float(done["elapsed_seconds"].iloc[-1])
 
-    @classmethod
-    def restore(cls, spec: TrialSpec, run_id: str, env: Environment, workdir: Path, checkpoint: bytes | None,
-                done: pd.DataFrame | None) -> Trial:
-        """The trial as it was after its last checkpoint (``done``: the rows written before it)."""
-        if checkpoint is None:
-            return cls(spec, run_id, env, workdir)
-        state: Checkpoint = pickle.loads(checkpoint)
-        return cls(spec, run_id, env, workdir, state.designer, state.next_generation, done)
-
     @property
     def label(self) -> str:
         return f"designer {self.spec.designer.label!r} (seed {self.spec.seed})"
