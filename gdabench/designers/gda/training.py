@@ -8,7 +8,7 @@ minimises the MSE between the true and the predicted noise.
 What makes it fast is not the arithmetic but the overhead around it (a step is a few
 milliseconds of tiny kernels): the forward and backward passes are hand-derived
 (:mod:`.backprop`), all parameters and gradients live in two flat buffers so the optimizer is
-one fused kernel over 90,833 numbers (``torch.optim.AdamW(fused=True)``), each epoch's
+one fused kernel over all of them (``torch.optim.AdamW(fused=True)``; the count: :mod:`.model`), each epoch's
 shuffle, timesteps, noise and noisy inputs are drawn and computed in a handful of batched
 operations, and the time features of every timestep are tabulated once.
 """
