@@ -25,14 +25,14 @@ from .body import parse_shape
 from .config import Experiment, PluginChoice, parse_params, parse_seeds
 from .errors import ConfigError, GdabenchError, RunFailure, Terminated
 from .execution.options import Execution
+from .experiment_file import ExperimentFile, load as load_experiment
+from .loggers import make_logger
 from .plugins import KINDS, registry
+from .progress import ProgressDisplay
 from .report.diversity import NEAR_COPY, SURVIVORS
 from .report.summary import failure_counts, summarize, thresholds
 from .report.tables import summary_cells
 from .results import RunDirectory
-from .loggers import make_logger
-from .experiment_file import ExperimentFile, load as load_experiment
-from .progress import ProgressDisplay
 from .runner import compare as run_compare, default_out_dir, with_added_seeds
 
 try:  # typer >= 0.2x carries its own copy of click
@@ -510,7 +510,7 @@ def main() -> None:
         hint = f" (see: {exc.ctx.command_path} --help)" if exc.ctx is not None else ""
         err_console.print(f"[bold red]error:[/] {escape(' '.join(exc.format_message().split()))}{escape(hint)}", highlight=False, soft_wrap=True)
         code = 2
-    except (click_errors.Abort if hasattr(click_errors, "Abort") else typer.Abort):
+    except (click_errors.Abort if hasattr(click_errors, "Abort") else typer.Abort):  # noqa: B030 - click's Abort, wherever this version keeps it
         code = 130
     sys.exit(code if isinstance(code, int) else 0)
 

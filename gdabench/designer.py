@@ -50,7 +50,7 @@ class Designer(abc.ABC):
     def tell(self, bodies: Sequence[Body], rewards: Sequence[float]) -> None:
         """Receive the rewards of the bodies returned by the last :meth:`ask` (same order)."""
 
-    def lend_cores(self, borrow: Callable[[], bool]) -> None:
+    def lend_cores(self, borrow: Callable[[], bool]) -> None:  # noqa: B027 - optional hook, ignored by default
         """Offer this designer the run's spare CPU cores: ``borrow()`` is True once its trial holds
         one more core, which it keeps until the trial ends.  The harness calls this before a
         trial's first generation (fresh or resumed); a designer that cannot use a second core

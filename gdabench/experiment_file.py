@@ -27,10 +27,11 @@ Unknown keys and bad values are one-line errors naming the key and the file.
 from __future__ import annotations
 
 import json
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
+
+import tomllib
 
 from .body import parse_shape
 from .config import PluginChoice, parse_seeds

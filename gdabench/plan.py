@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import json
 import re
-from pathlib import Path
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Mapping
 
 from . import seeding
@@ -65,7 +65,7 @@ class DesignerRecipe:
 
     def build(self, shape: tuple[int, int], population: int, budget: int, seed: int) -> Designer:
         """The designer of one trial, seeded from the run's seed as every trial is."""
-        harness = dict(shape=tuple(shape), population=population, budget=budget, seed=seeding.designer_seed(seed))
+        harness = {"shape": tuple(shape), "population": population, "budget": budget, "seed": seeding.designer_seed(seed)}
         designer = _build("designer", self.label, self.factory, **harness)
         if not isinstance(designer, Designer):
             raise PluginError(f"designer {self.label!r}: factory returned {type(designer).__name__}, not a gdabench.Designer")

@@ -78,7 +78,7 @@ class Registry:
     def _register(self, plugin: Any, name: str, dist: str, version: str) -> None:
         try:
             self.pm.register(plugin, name=name)
-        except Exception as exc:  # noqa: BLE001 - pluggy validation errors become one line
+        except Exception as exc:  # pluggy validation errors become one line
             raise PluginError(f"plugin {name!r} from package {dist} does not follow the gdabench contract: {exc}") from exc
         self._origin[name] = (dist, version)
 
@@ -105,7 +105,7 @@ class Registry:
             version = ep.dist.version if ep.dist is not None else ""
             try:
                 plugin = ep.load()
-            except Exception as exc:  # noqa: BLE001
+            except Exception as exc:
                 raise PluginError(
                     f"plugin {ep.name!r} from package {dist} failed to import: {type(exc).__name__}: {exc} "
                     f"(fix or uninstall it, or set GDABENCH_DISABLE_PLUGINS={ep.name})"
@@ -119,7 +119,7 @@ class Registry:
             dist, version = self._origin.get(impl.plugin_name, ("unknown package", ""))
             try:
                 specs = list(impl.function() or [])
-            except Exception as exc:  # noqa: BLE001
+            except Exception as exc:
                 raise PluginError(f"plugin {impl.plugin_name!r} from package {dist}: {hook_name}() raised {type(exc).__name__}: {exc}") from exc
             for spec in specs:
                 if not isinstance(spec, spec_type):
@@ -154,7 +154,7 @@ class Registry:
 
     def distributions(self) -> dict[str, str]:
         """Distribution name -> version of every registered plugin (for run.json)."""
-        return {dist: version for dist, version in sorted(self._origin.values())}
+        return dict(sorted(self._origin.values()))
 
 
 _default: Registry | None = None

@@ -26,9 +26,9 @@ from typing import Any, Iterator, Sequence
 from . import faults
 from .config import Experiment, format_seeds
 from .errors import ConfigError, GdabenchError, RunDirectoryError, RunFailure, Terminated, TrialError, one_line
+from .events import Listeners, PluginHooks, RunListener
 from .execution import cores
 from .execution.options import Execution, cpu_count
-from .events import Listeners, PluginHooks, RunListener
 from .execution.trials import InProcess, LocalProcesses, TrialHost, TrialWorkers
 from .plan import Plan, TrialSpec
 from .plugins import Registry, registry

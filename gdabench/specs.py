@@ -22,7 +22,7 @@ def _load(factory: str | Callable[..., Any], kind: str, name: str) -> Callable[.
         obj: Any = importlib.import_module(module_name)
         for part in attr.split("."):
             obj = getattr(obj, part)
-    except Exception as exc:  # noqa: BLE001 - any import failure is the plugin's, reported in one line
+    except Exception as exc:  # any import failure is the plugin's, reported in one line
         raise PluginError(f"{kind} {name!r}: cannot load {factory!r}: {type(exc).__name__}: {exc}") from exc
     return obj
 

@@ -28,7 +28,7 @@ from .body import Body, as_body
 from .designer import Designer
 from .environment import Environment
 from .errors import DesignerError, GdabenchError, one_line
-from .execution.evaluation import COUNTED, DUPLICATE, INVALID, OK, Evaluate, EvalTask
+from .execution.evaluation import COUNTED, DUPLICATE, INVALID, OK, EvalTask, Evaluate
 from .plan import TrialSpec
 from .results import COLUMNS, Checkpoint, utc_now
 
@@ -143,7 +143,7 @@ class Trial:
             self.designer.tell([as_body(r["body"]) for r in rows], [float(r["reward"]) for r in rows])
         except GdabenchError:
             raise
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             raise DesignerError(f"{self.label} raised in tell(): {one_line(exc)}") from exc
         self.tell_seconds = time.perf_counter() - t0
         self.generation += 1
@@ -164,7 +164,7 @@ class Trial:
             info = list(self.designer.proposal_info() or [])
         except GdabenchError:
             raise
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             raise DesignerError(f"{self.label} raised in ask(): {one_line(exc)}") from exc
         try:
             bodies = [as_body(b) for b in proposed]

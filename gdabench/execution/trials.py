@@ -29,7 +29,7 @@ from ..results import Checkpoint, RunDirectory
 from ..trial import GenerationResult, Trial
 from . import cores
 from .cache import EvaluationCache
-from .evaluation import Evaluate, EvalOutcome, EvalTask, instance
+from .evaluation import EvalOutcome, EvalTask, Evaluate, instance
 from .executor import Executor
 from .options import Execution, make_executor
 from .pool import death_message, exit_when_orphaned
@@ -134,7 +134,7 @@ class TrialWorkers(abc.ABC):
     def __enter__(self) -> TrialWorkers:
         return self
 
-    def __exit__(self, *exc: object) -> None:
+    def __exit__(self, *exc: object) -> None:  # noqa: B027 - nothing to release unless a subclass says so
         pass
 
 

@@ -42,8 +42,8 @@ from .diversity import NEAR_COPY, SURVIVORS, diversity
 from .html import render_html
 from .markdown import render_markdown
 from .stat_pages import statistics_sections
-from .summary import failure_counts, per_run, summarize, thresholds
 from .stats import CONFIDENCE, RESAMPLES, best_so_far_curve, generation_rewards, median_band
+from .summary import failure_counts, per_run, summarize, thresholds
 from .tables import summary_cells
 
 #: columns the report needs; everything else in the table is optional

@@ -36,7 +36,6 @@ from torchrl.data.replay_buffers import SamplerWithoutReplacement
 from torchrl.objectives.value import GAE
 
 from ...torch_runtime import torch_threads
-
 from .config import PPOConfig
 from .envs import BodyEnvs, box_dims
 from .evaluation import evaluate_policy

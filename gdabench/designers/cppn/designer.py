@@ -32,8 +32,8 @@ from neat.reporting import ReporterSet
 from ...body import Body, invalid_reason
 from ...designer import Designer
 from ...errors import ConfigError, DesignerError
-from .painting import cppn_voxels
 from .config import load_config, read_config_text
+from .painting import cppn_voxels
 
 #: neat-python objects rebuilt from the config text when a pickled designer is restored
 _NEAT_PARTS = ("_config", "_stagnation", "_reproduction", "_species")

@@ -61,7 +61,7 @@ class FlatParameters:
     @torch.no_grad()
     def store(self) -> None:
         """Copy the parameters out into the module."""
-        for p, kind, shape in self.entries:
+        for p, kind, _ in self.entries:
             p.copy_(module_layout(self.of(p)[0], kind, p.shape))
 
 

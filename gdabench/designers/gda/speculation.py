@@ -119,7 +119,7 @@ def _train_jobs(conn: Any, abandoned: Any, warm: Any, trainer: Trainer) -> None:
         while (message := conn.recv()) is not None:
             job_id, job = message
 
-            def stop() -> bool:  # asked before each epoch
+            def stop(job_id: int = job_id) -> bool:  # asked before each epoch
                 warm.value = trainer.warm  # the compiled step is in inductor's on-disk cache now
                 return abandoned.value == job_id or os.getppid() != parent
 

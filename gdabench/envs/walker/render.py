@@ -7,7 +7,6 @@ the terrain make forward motion visible even though the camera moves with the bo
 
 from __future__ import annotations
 
-
 import numpy as np
 from PIL import Image, ImageDraw
 
