@@ -75,7 +75,9 @@ def load(path: str | Path) -> ExperimentFile:
         if not isinstance(data, dict) or not isinstance(data.get("config"), dict):
             raise ConfigError(f"{path}: a JSON experiment must be a run's run.json (with a 'config' table)")
         execution = data.get("execution") if isinstance(data.get("execution"), dict) else {}
-        return _parse({**data["config"], "execution": {k: v for k, v in execution.items() if k in EXECUTION_KEYS}}, path)
+        return _parse(
+            {**data["config"], "execution": {k: v for k, v in execution.items() if k in EXECUTION_KEYS}}, path
+        )
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -118,7 +120,9 @@ def _parse(data: Mapping[str, Any], path: Path) -> ExperimentFile:
             raise fail("seeds", "give seeds or repetitions, not both")
         if "seeds" in data or "repetitions" in data:
             seeds = data.get("seeds")
-            found.seeds = tuple(parse_seeds(seeds if isinstance(seeds, (str, type(None))) else list(seeds), data.get("repetitions")))
+            found.seeds = tuple(
+                parse_seeds(seeds if isinstance(seeds, (str, type(None))) else list(seeds), data.get("repetitions"))
+            )
         if "stop_at_optimum" in data:
             if not isinstance(data["stop_at_optimum"], bool):
                 raise fail("stop_at_optimum", f"expected true or false, got {data['stop_at_optimum']!r}")

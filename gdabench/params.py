@@ -44,7 +44,9 @@ def signature_parameters(factory: Callable[..., Any]) -> dict[str, inspect.Param
         for p in sig.parameters.values():
             if p.kind is inspect.Parameter.VAR_KEYWORD:
                 var_keyword = True
-            elif p.kind in (inspect.Parameter.KEYWORD_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD) and p.name != "self":
+            elif (
+                p.kind in (inspect.Parameter.KEYWORD_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD) and p.name != "self"
+            ):
                 found.setdefault(p.name, p)
         if not var_keyword:
             return found
@@ -55,7 +57,10 @@ def config_signature(config: type, *, more: bool = False) -> inspect.Signature:
     """The signature to give an ``__init__(self, **params)`` that passes ``params`` to the dataclass
     ``config``: its fields as keyword parameters, and ``**kwargs`` with ``more`` (the class's base
     takes the rest, e.g. a designer's harness parameters)."""
-    own = [p.replace(kind=inspect.Parameter.KEYWORD_ONLY) for p in inspect.signature(config, eval_str=True).parameters.values()]
+    own = [
+        p.replace(kind=inspect.Parameter.KEYWORD_ONLY)
+        for p in inspect.signature(config, eval_str=True).parameters.values()
+    ]
     rest = [inspect.Parameter("kwargs", inspect.Parameter.VAR_KEYWORD)] if more else []
     return inspect.Signature([inspect.Parameter("self", inspect.Parameter.POSITIONAL_OR_KEYWORD), *own, *rest])
 
@@ -181,5 +186,7 @@ def describe(spec: Any) -> list[tuple[str, str, str, str]]:
         if name in ("shape", "population", "budget", "seed"):  # the harness passes these
             continue
         default = spec.defaults.get(name, p.default)
-        rows.append((name, _type_name(p.annotation), "required" if default is _EMPTY else repr(default), notes.get(name, "")))
+        rows.append(
+            (name, _type_name(p.annotation), "required" if default is _EMPTY else repr(default), notes.get(name, ""))
+        )
     return rows

@@ -79,7 +79,9 @@ class Registry:
         try:
             self.pm.register(plugin, name=name)
         except Exception as exc:  # pluggy validation errors become one line
-            raise PluginError(f"plugin {name!r} from package {dist} does not follow the gdabench contract: {exc}") from exc
+            raise PluginError(
+                f"plugin {name!r} from package {dist} does not follow the gdabench contract: {exc}"
+            ) from exc
         self._origin[name] = (dist, version)
 
     def _check_hooks(self) -> None:
@@ -92,9 +94,15 @@ class Registry:
                     continue
                 marked = self.pm.parse_hookimpl_opts(plugin, attr) is not None
                 if attr not in hooks:
-                    raise PluginError(f"plugin {name!r} from package {dist}: {attr}() is not a gdabench hook (hooks: {', '.join(hooks)})")
+                    raise PluginError(
+                        f"plugin {name!r} from package {dist}: {attr}() is not a gdabench hook (hooks: "
+                        f"{', '.join(hooks)})"
+                    )
                 if not marked:
-                    raise PluginError(f"plugin {name!r} from package {dist}: {attr}() lacks the @gdabench.hookimpl marker, so it would never be called")
+                    raise PluginError(
+                        f"plugin {name!r} from package {dist}: {attr}() lacks the @gdabench.hookimpl marker, so it "
+                        f"would never be called"
+                    )
 
     def _load_entry_points(self) -> None:
         disabled = {n.strip() for n in os.environ.get("GDABENCH_DISABLE_PLUGINS", "").split(",") if n.strip()}
@@ -120,7 +128,9 @@ class Registry:
             try:
                 specs = list(impl.function() or [])
             except Exception as exc:
-                raise PluginError(f"plugin {impl.plugin_name!r} from package {dist}: {hook_name}() raised {type(exc).__name__}: {exc}") from exc
+                raise PluginError(
+                    f"plugin {impl.plugin_name!r} from package {dist}: {hook_name}() raised {type(exc).__name__}: {exc}"
+                ) from exc
             for spec in specs:
                 if not isinstance(spec, spec_type):
                     raise PluginError(
@@ -150,7 +160,9 @@ class Registry:
             known = self.names(kind)
             close = difflib.get_close_matches(name, known, n=1)
             hint = f" Did you mean {close[0]!r}?" if close else ""
-            raise UnknownPluginError(f"unknown {kind} {name!r}; known {kind}s: {', '.join(known) or '(none)'}.{hint}") from None
+            raise UnknownPluginError(
+                f"unknown {kind} {name!r}; known {kind}s: {', '.join(known) or '(none)'}.{hint}"
+            ) from None
 
     def distributions(self) -> dict[str, str]:
         """Distribution name -> version of every registered plugin (for run.json)."""

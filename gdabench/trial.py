@@ -71,7 +71,11 @@ class Trial:
     def __init__(self, spec: TrialSpec, run_id: str, env: Environment, workdir: Path, designer: Designer | None = None,
                  next_generation: int = 0, done: pd.DataFrame | None = None):
         self.spec, self.env, self.workdir = spec, env, workdir
-        self.designer = designer if designer is not None else spec.designer.build(spec.shape, spec.population, spec.budget, spec.seed)
+        self.designer = (
+            designer
+            if designer is not None
+            else spec.designer.build(spec.shape, spec.population, spec.budget, spec.seed)
+        )
         self.constants = {"run_id": run_id, **spec.constants}
         self.generation = next_generation
         self.seen: dict[str, float] = {}
@@ -100,7 +104,13 @@ class Trial:
         tasks: list[EvalTask] = []
         task_rows: list[int] = []
         for index, body in enumerate(bodies):
-            row = {**self.constants, "generation": self.generation, "index": index, "body": body.text, "body_hash": body.hash}
+            row = {
+                **self.constants,
+                "generation": self.generation,
+                "index": index,
+                "body": body.text,
+                "body_hash": body.hash,
+            }
             row.update(info[index] if info else {})
             reason = self.env.invalid_reason(body)
             if reason is not None:
@@ -119,8 +129,13 @@ class Trial:
 
         for row_i, task, outcome in zip(task_rows, tasks, evaluate(tasks)):
             self.seen[task.body.hash] = outcome.reward
-            rows[row_i].update(reward=outcome.reward, status=outcome.status, message=outcome.message, cached=outcome.cached,
-                               eval_seconds=outcome.seconds)
+            rows[row_i].update(
+                reward=outcome.reward,
+                status=outcome.status,
+                message=outcome.message,
+                cached=outcome.cached,
+                eval_seconds=outcome.seconds,
+            )
             rows[row_i].update(_extra(outcome.info, "environment"))
         elapsed, stamp = time.perf_counter() - self.clock0, utc_now()
         for row in rows:
@@ -132,8 +147,23 @@ class Trial:
                     self.best = row["reward"]
             row.setdefault("eval_seconds", 0.0)
             row.setdefault("cached", False)
-            row.update(n_evals=self.n_evals, best_so_far=self.best, design_seconds=design_seconds, elapsed_seconds=elapsed, timestamp=stamp)
-        report = GenerationReport(spec.designer.label, spec.env.label, spec.seed, self.generation, self.n_evals, spec.budget, len(tasks), self.best)
+            row.update(
+                n_evals=self.n_evals,
+                best_so_far=self.best,
+                design_seconds=design_seconds,
+                elapsed_seconds=elapsed,
+                timestamp=stamp,
+            )
+        report = GenerationReport(
+            spec.designer.label,
+            spec.env.label,
+            spec.seed,
+            self.generation,
+            self.n_evals,
+            spec.budget,
+            len(tasks),
+            self.best,
+        )
 
         generation = self.generation
         if self._ends(truncated, bool(tasks)):
@@ -147,7 +177,9 @@ class Trial:
             raise DesignerError(f"{self.label} raised in tell(): {one_line(exc)}") from exc
         self.tell_seconds = time.perf_counter() - t0
         self.generation += 1
-        return GenerationResult(spec.index, generation, rows, pickle.dumps(Checkpoint(self.designer, self.generation)), report)
+        return GenerationResult(
+            spec.index, generation, rows, pickle.dumps(Checkpoint(self.designer, self.generation)), report
+        )
 
     def _ends(self, truncated: bool, evaluated: bool) -> bool:
         spec = self.spec

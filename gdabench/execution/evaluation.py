@@ -89,5 +89,7 @@ def evaluate(task: EvalTask, prebuilt: Mapping[str, Any] | None = None) -> EvalO
         return EvalOutcome(math.nan, ERROR, one_line(exc), time.perf_counter() - start)
     seconds = time.perf_counter() - start
     if not math.isfinite(reward):
-        return EvalOutcome(math.nan, ERROR, f"environment returned a non-finite reward ({reward})", seconds, dict(ev.info))
+        return EvalOutcome(
+            math.nan, ERROR, f"environment returned a non-finite reward ({reward})", seconds, dict(ev.info)
+        )
     return EvalOutcome(reward, OK, "", seconds, dict(ev.info))

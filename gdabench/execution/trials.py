@@ -215,7 +215,9 @@ class LocalProcesses(TrialWorkers):
         driver_end, worker_end = self._ctx.Pipe()
         host = TrialHost(*self.args)
         held = self._ctx.Value("i", 0, lock=False)  # changed only under the spare count's lock
-        process = self._ctx.Process(target=_serve, args=(worker_end, host, os.getpid(), self.spare, held), daemon=False, name="gdabench-trial")
+        process = self._ctx.Process(
+            target=_serve, args=(worker_end, host, os.getpid(), self.spare, held), daemon=False, name="gdabench-trial"
+        )
         process.start()
         worker_end.close()
         return _Process(process, driver_end)
@@ -238,7 +240,11 @@ class LocalProcesses(TrialWorkers):
                     answers.append(Answer(worker, ok, value))
                     continue
             worker.process.join(5)
-            answers.append(Answer(worker, False, death_message(worker.process.exitcode).replace("worker", "trial worker"), died=True))
+            answers.append(
+                Answer(
+                    worker, False, death_message(worker.process.exitcode).replace("worker", "trial worker"), died=True
+                )
+            )
         return answers
 
     def kill(self, worker: _Process) -> None:

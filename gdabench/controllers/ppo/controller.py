@@ -71,7 +71,9 @@ class PPO(Controller):
         choice = self.config.compile
         if choice is True:
             if self.device.type == "cpu" and not has_cpp_compiler():
-                raise ConfigError("ppo: compile=true needs a C++ compiler (g++ or clang++) on the PATH; use compile=false")
+                raise ConfigError(
+                    "ppo: compile=true needs a C++ compiler (g++ or clang++) on the PATH; use compile=false"
+                )
             return True
         if choice is False:
             return False
@@ -135,7 +137,14 @@ def replay_policy(saved: SavedPolicy, make_env: Callable[[], Any]) -> float:
     device = next(saved.nets.parameters()).device
     with seeded_torch(seed, config.threads):
         generator = evaluation_generator(config, seed, saved.meta["best_evaluation"], device)
-        scores = evaluate_policy(saved.nets, make_env, n_evals=config.n_evals, episode_end=config.episode_end, generator=generator, device=device)
+        scores = evaluate_policy(
+            saved.nets,
+            make_env,
+            n_evals=config.n_evals,
+            episode_end=config.episode_end,
+            generator=generator,
+            device=device,
+        )
     return float(sum(scores) / len(scores))
 
 

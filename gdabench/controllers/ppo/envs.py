@@ -35,7 +35,12 @@ DONE_KEYS = ("done", "terminated", "truncated")
 def box_dims(env: gymnasium.Env) -> tuple[int, int]:
     """(observation size, action size) of an env with flat Box spaces, or a one-line error."""
     obs, act = env.observation_space, env.action_space
-    if not (isinstance(obs, gymnasium.spaces.Box) and isinstance(act, gymnasium.spaces.Box) and len(obs.shape) == 1 and len(act.shape) == 1):
+    if not (
+        isinstance(obs, gymnasium.spaces.Box)
+        and isinstance(act, gymnasium.spaces.Box)
+        and len(obs.shape) == 1
+        and len(act.shape) == 1
+    ):
         raise TypeError(f"ppo needs flat Box observation and action spaces, got {obs} and {act}")
     return int(obs.shape[0]), int(act.shape[0])
 
@@ -83,7 +88,10 @@ class BodyEnvs(EnvBase):
         out = TensorDict(
             {
                 "observation": tensordict.get("observation").clone() if kept else torch.zeros(n, n_obs),
-                **{key: tensordict.get(key).clone() if kept else torch.zeros(n, 1, dtype=torch.bool) for key in DONE_KEYS},
+                **{
+                    key: tensordict.get(key).clone() if kept else torch.zeros(n, 1, dtype=torch.bool)
+                    for key in DONE_KEYS
+                },
             },
             batch_size=(n,),
         )

@@ -144,7 +144,9 @@ def _dims(make_env: Callable[[], Any]) -> tuple[int, int]:
         env.close()
 
 
-def train(config: PPOConfig, make_env: Callable[[], Any], *, seed: int, device: torch.device, compiled: bool) -> TrainResult:
+def train(
+    config: PPOConfig, make_env: Callable[[], Any], *, seed: int, device: torch.device, compiled: bool
+) -> TrainResult:
     """Train PPO on the body behind ``make_env``; see the module docstring."""
     start = time.perf_counter()
     with seeded_torch(seed, config.threads):
@@ -178,7 +180,14 @@ def train(config: PPOConfig, make_env: Callable[[], Any], *, seed: int, device: 
         def evaluate(timesteps: int) -> None:
             nonlocal best_index, best_state
             generator = evaluation_generator(config, seed, len(evaluations), device)
-            scores = evaluate_policy(nets, make_env, n_evals=config.n_evals, episode_end=config.episode_end, generator=generator, device=device)
+            scores = evaluate_policy(
+                nets,
+                make_env,
+                n_evals=config.n_evals,
+                episode_end=config.episode_end,
+                generator=generator,
+                device=device,
+            )
             evaluations.append(Evaluated(timesteps, scores))
             if best_index < 0 or evaluations[-1].mean > evaluations[best_index].mean:
                 best_index, best_state = len(evaluations) - 1, copy.deepcopy(nets.state_dict())

@@ -41,7 +41,9 @@ def read_config_text(path: str | os.PathLike[str] | None) -> str:
     try:
         return Path(path).read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cppn: cannot read config file {str(path)!r}: {exc.strerror if isinstance(exc, OSError) else exc}") from None
+        raise ConfigError(
+            f"cppn: cannot read config file {str(path)!r}: {exc.strerror if isinstance(exc, OSError) else exc}"
+        ) from None
 
 
 def load_config(text: str, population: int, source: str = "(built-in)") -> neat.Config:
@@ -80,7 +82,9 @@ def _neat_config(parser: configparser.ConfigParser, population: int) -> neat.Con
     with tempfile.TemporaryDirectory(prefix="gdabench-cppn-") as tmp:
         path = Path(tmp) / "neat.cfg"
         path.write_text(buffer.getvalue(), encoding="utf-8")
-        config = neat.Config(neat.DefaultGenome, neat.DefaultReproduction, neat.DefaultSpeciesSet, neat.DefaultStagnation, str(path))
+        config = neat.Config(
+            neat.DefaultGenome, neat.DefaultReproduction, neat.DefaultSpeciesSet, neat.DefaultStagnation, str(path)
+        )
     if config.stagnation_config.species_fitness_func not in stat_functions:
         raise RuntimeError(f"unknown species fitness function {config.stagnation_config.species_fitness_func!r}")
     return config
@@ -133,9 +137,17 @@ def _check_cppn(config: neat.Config, parser: configparser.ConfigParser, source: 
             raise bad(f"{kind}_default", default, f"not one of {', '.join(known)}")
         for name in getattr(g, f"{kind}_options"):
             if name not in known:
-                raise bad(f"{kind}_options", " ".join(getattr(g, f"{kind}_options")), f"{name!r} is not one of {', '.join(known)}")
+                raise bad(
+                    f"{kind}_options",
+                    " ".join(getattr(g, f"{kind}_options")),
+                    f"{name!r} is not one of {', '.join(known)}",
+                )
 
 
 def _first_line(exc: BaseException) -> str:
     lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
-    return " ".join(lines) if type(exc).__name__ == "UnknownConfigItemError" else (lines[0] if lines else type(exc).__name__)
+    return (
+        " ".join(lines)
+        if type(exc).__name__ == "UnknownConfigItemError"
+        else (lines[0] if lines else type(exc).__name__)
+    )

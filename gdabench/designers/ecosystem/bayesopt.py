@@ -138,7 +138,10 @@ class BayesianOptimization(Designer):
             x = one_hot(bodies)
             y = torch.tensor(scores, dtype=torch.float64).unsqueeze(-1)
             model = SingleTaskGP(x, y, outcome_transform=Standardize(m=1))
-            fit_gpytorch_mll(ExactMarginalLogLikelihood(model.likelihood, model), optimizer_kwargs={"options": {"maxiter": self.fit_iters}})
+            fit_gpytorch_mll(
+                ExactMarginalLogLikelihood(model.likelihood, model),
+                optimizer_kwargs={"options": {"maxiter": self.fit_iters}},
+            )
             choices = one_hot(pool)
             with torch.no_grad():
                 picked = MaxPosteriorSampling(model, replacement=False)(choices, num_samples=q)

@@ -107,7 +107,9 @@ class TrainingAhead(LocalTraining):
         return self._speculation
 
     def _fail(self, exc: WorkerError) -> None:
-        warnings.warn(f"gda: {exc}; training in this process from now on (same results, no overlap)", RuntimeWarning, stacklevel=4)
+        warnings.warn(
+            f"gda: {exc}; training in this process from now on (same results, no overlap)", RuntimeWarning, stacklevel=4
+        )
         self.failed = True
         if self._speculation is not None:
             self._speculation.close()

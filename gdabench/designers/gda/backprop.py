@@ -310,7 +310,12 @@ class FastUNet:
         self.out.w, self.out.gw = (t.view(-1, 1) for t in p.of(model.out.weight))  # 1x1 convolution = linear map
         # bilinear upsampling (align_corners) is a fixed linear map from the low to the full grid
         basis = torch.eye(low[0] * low[1], device=device).view(-1, 1, *low)
-        self.upsample = F.interpolate(basis, size=size, mode="bilinear", align_corners=True).view(low[0] * low[1], -1).t().contiguous()
+        self.upsample = (
+            F.interpolate(basis, size=size, mode="bilinear", align_corners=True)
+            .view(low[0] * low[1], -1)
+            .t()
+            .contiguous()
+        )
         self.cells = size[0] * size[1]
 
     def prepare(self, batch: int) -> None:
@@ -353,7 +358,9 @@ class FastUNet:
         so under ``torch.compile`` a call has no Python side effects to replay.
         """
         b = x.shape[0]
-        prediction, (inc, down, down_res, down_conv, att_low, bottleneck, up_res, up_conv, att_high, h, c_skip) = self.forward(x, t_feat)
+        prediction, (inc, down, down_res, down_conv, att_low, bottleneck, up_res, up_conv, att_high, h, c_skip) = (
+            self.forward(x, t_feat)
+        )
         diff = prediction - noise
         loss = diff.pow(2).mean()
 

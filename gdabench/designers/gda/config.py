@@ -83,15 +83,22 @@ class GdaConfig:
         if not 0.0 <= self.crossover <= 1.0:
             raise ConfigError(f"gda: crossover must be a share between 0 and 1, got {self.crossover!r}")
         if self.crossover and not 1 <= self.crossover_t < self.steps:
-            raise ConfigError(f"gda: crossover_t must be a timestep between 1 and steps - 1 = {self.steps - 1}, got {self.crossover_t!r}")
+            raise ConfigError(
+                f"gda: crossover_t must be a timestep between 1 and steps - 1 = {self.steps - 1}, got "
+                f"{self.crossover_t!r}"
+            )
         if not isinstance(self.hybrid, int) or isinstance(self.hybrid, bool) or self.hybrid < 0 or self.hybrid == 1:
-            raise ConfigError(f"gda: hybrid must be 0 (never) or at least 2 (every hybrid-th generation), got {self.hybrid!r}")
+            raise ConfigError(
+                f"gda: hybrid must be 0 (never) or at least 2 (every hybrid-th generation), got {self.hybrid!r}"
+            )
         if self.categories is not None:
             parse_shares(self.categories)
             if self.pool is not None:
                 raise ConfigError("gda: categories and pool both choose among samples; give one of them")
         if self.speculate is True and not self.may_train_ahead:
-            raise ConfigError("gda: speculate=true needs device=cpu and none of warm_start, published_reencoding, hybrid")
+            raise ConfigError(
+                "gda: speculate=true needs device=cpu and none of warm_start, published_reencoding, hybrid"
+            )
 
     def check_population(self, population: int) -> None:
         """Refuse settings that do not fit a generation of ``population`` bodies."""

@@ -119,7 +119,14 @@ class GenerationalDiffusion(Designer):
         config.check_population(self.population)
         self.prior_bodies = load_prior(config.prior, config.prior_top, self.shape) if config.prior else []
         compiles = config.compiles(self.population, self.budget)
-        spec = TrainerSpec(config.schedule_args, self.shape, float(config.lr), compiles, config.threads, str(resolve_device(config.device, "gda")))
+        spec = TrainerSpec(
+            config.schedule_args,
+            self.shape,
+            float(config.lr),
+            compiles,
+            config.threads,
+            str(resolve_device(config.device, "gda")),
+        )
         eligible = config.may_train_ahead and config.trains_long(self.population, self.budget)
         self._training = choose_backend(spec, config.speculate, eligible, config.warm_start)
 
@@ -182,7 +189,9 @@ class GenerationalDiffusion(Designer):
             "train_loss": trained.result.loss,
             "train_seconds": trained.result.seconds,
             "trained_ahead": trained.ahead,
-            "compiled": bool(self._training.trainer.compile),  # False also after torch.compile failed and gda went on eagerly
+            "compiled": bool(
+                self._training.trainer.compile
+            ),  # False also after torch.compile failed and gda went on eagerly
             "samples_drawn": drawn,
             "sample_seconds": sample_seconds,
         }
@@ -206,10 +215,18 @@ class GenerationalDiffusion(Designer):
     def _job(self, bodies: list[np.ndarray], generation: int) -> TrainJob:
         """Training a fresh model on ``bodies`` with generation ``generation``'s torch stream, which
         is derived from the run's seed alone (so resume is exact)."""
-        seed = np.random.SeedSequence(self.seed_sequence.entropy, spawn_key=(*self.seed_sequence.spawn_key, TORCH_STREAM, generation))
+        seed = np.random.SeedSequence(
+            self.seed_sequence.entropy, spawn_key=(*self.seed_sequence.spawn_key, TORCH_STREAM, generation)
+        )
         c = self.config
-        return TrainJob.make(encode(np.stack(bodies))[:, None], int(seed.generate_state(1, dtype=np.uint64)[0] >> np.uint64(1)),
-                             epochs=c.epochs, batch_size=c.batch, dataset_size=c.dataset_size, target_loss=c.target_mse)
+        return TrainJob.make(
+            encode(np.stack(bodies))[:, None],
+            int(seed.generate_state(1, dtype=np.uint64)[0] >> np.uint64(1)),
+            epochs=c.epochs,
+            batch_size=c.batch,
+            dataset_size=c.dataset_size,
+            target_loss=c.target_mse,
+        )
 
     def _following(self, bodies: list[np.ndarray]) -> Callable[[int], TrainJob | None]:
         """The training job ``k`` generations on if the survivors stay ``bodies``; None if the run
@@ -236,7 +253,9 @@ class GenerationalDiffusion(Designer):
         bodies = quota.bodies() if c.pool is None else self._most_promising(quota.bodies(), wanted)
         return self._remember(bodies), drawn
 
-    def _crossover_new(self, wanted: int, parents: list[np.ndarray], generator: torch.Generator) -> tuple[list[Body], int]:
+    def _crossover_new(
+        self, wanted: int, parents: list[np.ndarray], generator: torch.Generator
+    ) -> tuple[list[Body], int]:
         """Up to ``wanted`` new bodies made by the interpolation crossover (thesis section 6.4).
 
         Two distinct survivors are drawn, a weight ``w`` uniformly from [0, 1]; ``w a + (1 - w) b``
@@ -254,7 +273,9 @@ class GenerationalDiffusion(Designer):
             second = (first + torch.randint(1, len(parents), (n,), generator=generator)) % len(parents)
             w = torch.rand((n, 1, 1, 1), generator=generator)
             x = noised(trainer.schedule, w * data[first] + (1 - w) * data[second], t, generator).to(trainer.device)
-            x = denoise(trainer.model, trainer.schedule, x, t, generator, self.config.temperature, trainer.sample_forward())
+            x = denoise(
+                trainer.model, trainer.schedule, x, t, generator, self.config.temperature, trainer.sample_forward()
+            )
             return decode(x[:, 0].cpu().numpy())
 
         quota = FirstNew(wanted)
@@ -279,7 +300,9 @@ class GenerationalDiffusion(Designer):
             x = ddim_sample(trainer.model, trainer.schedule, n, self.shape, generator, trainer.device, c.sample_steps,
                             temperature=c.temperature, forward=forward)
         else:
-            x = ancestral_sample(trainer.model, trainer.schedule, n, self.shape, generator, trainer.device, c.temperature, forward)
+            x = ancestral_sample(
+                trainer.model, trainer.schedule, n, self.shape, generator, trainer.device, c.temperature, forward
+            )
         return decode(x[:, 0].cpu().numpy())
 
     def _accept(self, voxels: np.ndarray, taken: set[str]) -> Body | None:

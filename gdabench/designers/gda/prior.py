@@ -15,7 +15,9 @@ def load_prior(source: str, top: int, shape: tuple[int, int]) -> list[Body]:
     if path.is_dir():
         path = path / "evaluations.parquet"
     if not path.exists():
-        raise ConfigError(f"gda: prior {source!r} not found (give a run directory, its evaluations.parquet, or a text file of bodies)")
+        raise ConfigError(
+            f"gda: prior {source!r} not found (give a run directory, its evaluations.parquet, or a text file of bodies)"
+        )
     try:
         if path.suffix == ".parquet":
             import pandas as pd
@@ -24,7 +26,9 @@ def load_prior(source: str, top: int, shape: tuple[int, int]) -> list[Body]:
             rows = rows[rows["status"] == "ok"].sort_values("reward", ascending=False, kind="stable")
             texts = list(dict.fromkeys(rows["body"]))
         else:
-            texts = [line.split()[0] for line in path.read_text().splitlines() if line.strip() and not line.startswith("#")]
+            texts = [
+                line.split()[0] for line in path.read_text().splitlines() if line.strip() and not line.startswith("#")
+            ]
     except GdabenchError:
         raise
     except Exception as exc:  # noqa: BLE001 - any unreadable file is one line for the user

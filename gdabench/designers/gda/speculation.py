@@ -63,7 +63,9 @@ class Speculation:
         """Whether this process has trained a model ahead that no generation has used yet."""
         return self._ahead is not None
 
-    def train(self, job: TrainJob, trainer: Trainer, following: Following) -> tuple[np.ndarray, np.ndarray, FitResult, bool]:
+    def train(
+        self, job: TrainJob, trainer: Trainer, following: Following
+    ) -> tuple[np.ndarray, np.ndarray, FitResult, bool]:
         """``job``'s weights (training layout), stream state and result, and whether it was
         trained ahead.  Trained now by the training process if not, while ``trainer`` trains the
         next generation's model on the same survivors (a guess that pays when they stay)."""
@@ -149,7 +151,9 @@ class TrainingWorker:
         self._conn, child = ctx.Pipe()
         self._abandoned = ctx.Value("q", -1, lock=False)
         self._warm = ctx.Value("b", False, lock=False)
-        self._process = ctx.Process(target=_serve, args=(child, self._abandoned, self._warm, spec), daemon=True, name="gda-training")
+        self._process = ctx.Process(
+            target=_serve, args=(child, self._abandoned, self._warm, spec), daemon=True, name="gda-training"
+        )
         try:
             self._process.start()
         except Exception as exc:  # noqa: BLE001 - e.g. inside a daemonic process, which may not have children

@@ -50,7 +50,9 @@ class TrainerSpec:
     device: str = "cpu"
 
     def make(self) -> Trainer:
-        return Trainer(make_schedule(*self.schedule), shape=self.shape, lr=self.lr, device=self.device, compile=self.compile)
+        return Trainer(
+            make_schedule(*self.schedule), shape=self.shape, lr=self.lr, device=self.device, compile=self.compile
+        )
 
 
 #: trainers shared by the designers of one process (they run one after another): every
@@ -120,7 +122,9 @@ class Trainer:
             # the C++ wrapper runs the graph's ~500 kernel calls and allocations without Python
             # in between: 12% faster steps than inductor's Python wrapper, no longer to compile
             compiled = torch.compile(self.net.step, dynamic=False, options={"cpp_wrapper": True})
-            step = self._compiled[size] = self._first_call(compiled, self.net.step, lambda: self._compiled.__setitem__(size, compiled))
+            step = self._compiled[size] = self._first_call(
+                compiled, self.net.step, lambda: self._compiled.__setitem__(size, compiled)
+            )
         return step
 
     def sample_forward(self) -> Callable[[torch.Tensor, torch.Tensor], torch.Tensor]:
@@ -135,7 +139,9 @@ class Trainer:
                 torch._dynamo.mark_dynamic(x, 0)  # one graph whatever the pass size
                 return compiled(x, t_feat)
 
-            self._sample_forward = self._first_call(forward, self.model.forward_features, lambda: setattr(self, "_sample_forward", forward))
+            self._sample_forward = self._first_call(
+                forward, self.model.forward_features, lambda: setattr(self, "_sample_forward", forward)
+            )
         return self._sample_forward
 
     def _first_call(self, compiled: Callable[..., torch.Tensor], eager: Callable[..., torch.Tensor],
@@ -147,7 +153,11 @@ class Trainer:
             try:
                 out = compiled(*args)
             except Exception as exc:  # noqa: BLE001
-                warnings.warn(f"gda: torch.compile failed ({type(exc).__name__}: {exc}); running without it", RuntimeWarning, stacklevel=2)
+                warnings.warn(
+                    f"gda: torch.compile failed ({type(exc).__name__}: {exc}); running without it",
+                    RuntimeWarning,
+                    stacklevel=2,
+                )
                 self.compile = False
                 return eager(*args)
             done()
@@ -253,7 +263,9 @@ class TrainJob:
         data = torch.from_numpy(np.frombuffer(self.data, dtype=np.float32).reshape(self.data_shape).copy())
         return trainer.fit(data, generator=generator, stop=stop, **dict(self.fit))
 
-    def train(self, trainer: Trainer, stop: Callable[[], bool] | None = None) -> tuple[np.ndarray, np.ndarray, FitResult]:
+    def train(
+        self, trainer: Trainer, stop: Callable[[], bool] | None = None
+    ) -> tuple[np.ndarray, np.ndarray, FitResult]:
         """A fresh model trained from this job's own seed: its weights (training layout), the
         stream's state after training (where sampling goes on) and the result."""
         generator = torch.Generator().manual_seed(self.seed)

@@ -1,4 +1,4 @@
-"""Headless drawing of the walker world with Pillow (GIFs of the frames: :func:`gdabench.report.animation.frames_to_gif`).
+"""Headless drawing of the walker world with Pillow (GIFs: :func:`gdabench.report.animation.frames_to_gif`).
 
 Colours follow Evolution Gym's: rigid black, soft grey, horizontal actuators orange, vertical
 actuators blue.  The camera follows the body's centre of mass; tick marks every metre along
