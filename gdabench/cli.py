@@ -14,7 +14,7 @@ import signal
 import sys
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
-from typing import Annotated, Any, Callable, Optional, get_type_hints
+from typing import Annotated, Any, Callable, Literal, Optional, cast, get_type_hints
 
 import typer
 from rich.console import Console
@@ -73,7 +73,7 @@ class _Guard:
     def __enter__(self) -> _Guard:
         return self
 
-    def __exit__(self, exc_type, exc, tb) -> bool:
+    def __exit__(self, exc_type, exc, tb) -> Literal[False]:
         if exc is None or isinstance(exc, (typer.Exit, typer.Abort, SystemExit)):
             return False
         if os.environ.get("GDABENCH_DEBUG"):
@@ -208,7 +208,7 @@ class RunOptions:
     def experiment(self, designers: str, base: ExperimentFile) -> Experiment:
         reg = registry()
         suite = (
-            reg.get("suite", self.suite if "suite" in self.explicit else base.suite).spec
+            reg.get("suite", cast(str, self.suite if "suite" in self.explicit else base.suite)).spec
             if (self.suite or base.suite)
             else None
         )

@@ -49,7 +49,9 @@ def parse_params(items: Sequence[str] | None, what: str = "parameter") -> dict[s
 
 def split_top_level(text: str, sep: str = ",") -> list[str]:
     """Split on ``sep`` outside square brackets: ``'a,b[x=1,y=2]'`` -> ``['a', 'b[x=1,y=2]']``."""
-    parts, depth, current = [], 0, []
+    parts: list[str] = []
+    current: list[str] = []
+    depth = 0
     for ch in text:
         if ch == "[":
             depth += 1
@@ -250,7 +252,7 @@ class Experiment:
                 controller=None
                 if data.get("controller") is None
                 else PluginChoice.from_json(data["controller"], f"{where}.controller"),
-                shape=tuple(data["shape"]),  # type: ignore[arg-type]
+                shape=tuple(data["shape"]),
                 population=data["population"],
                 budget=data["budget"],
                 seeds=tuple(data["seeds"]),

@@ -9,12 +9,14 @@ harness checkpoints designers that way after every generation to resume killed r
 from __future__ import annotations
 
 import abc
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence, TypeVar, cast
 
 import numpy as np
 
 from .body import DEFAULT_SHAPE, Body
 from .errors import ConfigError
+
+T = TypeVar("T")
 
 
 class Designer(abc.ABC):
@@ -36,7 +38,7 @@ class Designer(abc.ABC):
             raise ConfigError(f"population must be at least 1, got {population}")
         if budget < 1:
             raise ConfigError(f"budget must be at least 1, got {budget}")
-        self.shape = tuple(shape)
+        self.shape: tuple[int, int] = cast("tuple[int, int]", tuple(shape))
         self.population = int(population)
         self.budget = int(budget)
         self.seed_sequence = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
@@ -70,7 +72,7 @@ def ranking_rewards(rewards: Sequence[float]) -> np.ndarray:
     return np.where(np.isnan(r), -np.inf, r)
 
 
-def top_k(bodies: Sequence[Body], rewards: Sequence[float], k: int) -> tuple[list[Body], list[float]]:
-    """The ``k`` best bodies, best first; ties keep their input order (a stable sort)."""
+def top_k(bodies: Sequence[T], rewards: Sequence[float], k: int) -> tuple[list[T], list[float]]:
+    """The ``k`` best bodies (or anything rewards rank), best first; ties keep their input order (a stable sort)."""
     order = np.argsort(-ranking_rewards(rewards), kind="stable")[:k]
     return [bodies[i] for i in order], [float(rewards[i]) for i in order]

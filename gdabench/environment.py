@@ -10,7 +10,7 @@ from __future__ import annotations
 import abc
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable, ClassVar, Mapping
+from typing import TYPE_CHECKING, Any, Callable, ClassVar, Mapping, cast
 
 from .body import DEFAULT_SHAPE, Body
 
@@ -56,7 +56,7 @@ class Environment(abc.ABC):
     version: str | None = None
 
     def __init__(self, *, shape: tuple[int, int] = DEFAULT_SHAPE):
-        self.shape = tuple(shape)
+        self.shape: tuple[int, int] = cast("tuple[int, int]", tuple(shape))
 
     def invalid_reason(self, body: Body) -> str | None:
         """Why this environment cannot score ``body``, or None.  Default: Evolution Gym's rule."""

@@ -46,7 +46,7 @@ EXECUTION_KEYS = ("jobs", "workers", "executor", "timeout", "ray_address", "cach
 class ExperimentFile:
     """What a file sets; each field is None where the file is silent."""
 
-    path: Path
+    path: Path | None  # None: no file
     designers: tuple[PluginChoice, ...] | None = None
     envs: tuple[PluginChoice, ...] | None = None
     suite: str | None = None
@@ -74,7 +74,9 @@ def load(path: str | Path) -> ExperimentFile:
             raise ConfigError(f"{path}: not valid JSON ({exc})") from None
         if not isinstance(data, dict) or not isinstance(data.get("config"), dict):
             raise ConfigError(f"{path}: a JSON experiment must be a run's run.json (with a 'config' table)")
-        execution = data.get("execution") if isinstance(data.get("execution"), dict) else {}
+        execution = data.get("execution")
+        if not isinstance(execution, dict):
+            execution = {}
         return _parse(
             {**data["config"], "execution": {k: v for k, v in execution.items() if k in EXECUTION_KEYS}}, path
         )

@@ -31,7 +31,7 @@ def signature_parameters(factory: Callable[..., Any]) -> dict[str, inspect.Param
     """Keyword parameters of ``factory`` (following ``**kwargs`` up a class's MRO); None if unknowable."""
     targets: list[Any] = [factory]
     if inspect.isclass(factory) and "__signature__" not in vars(factory):
-        targets = [c.__init__ for c in inspect.getmro(factory) if "__init__" in vars(c)]
+        targets = [vars(c)["__init__"] for c in inspect.getmro(factory) if "__init__" in vars(c)]
     found: dict[str, inspect.Parameter] = {}
     for fn in targets:
         try:

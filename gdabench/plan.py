@@ -12,7 +12,7 @@ import json
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, cast
 
 from . import seeding
 from .config import Experiment, PluginChoice
@@ -257,7 +257,7 @@ class Plan:
                             self.controller,
                             seed,
                             repetition,
-                            tuple(exp.shape),
+                            cast("tuple[int, int]", tuple(exp.shape)),
                             exp.population,
                             exp.budget,
                             exp.stop_at_optimum,

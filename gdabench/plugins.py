@@ -14,7 +14,7 @@ import importlib
 import os
 from dataclasses import dataclass
 from importlib import metadata
-from typing import Any, Iterator, Literal
+from typing import Any, Generic, Iterator, Literal, TypeVar, overload
 
 import pluggy
 
@@ -29,7 +29,7 @@ KINDS: tuple[Kind, ...] = ("designer", "environment", "controller")
 #: built-in plugin modules, registered under the ``gdabench`` distribution
 BUILTIN_PLUGINS = ("gdabench.designers", "gdabench.envs", "gdabench.controllers")
 
-_HOOKS: dict[Kind, tuple[str, type]] = {
+_HOOKS: dict[Kind, tuple[str, type[Any]]] = {
     "designer": ("gdabench_designers", DesignerSpec),
     "environment": ("gdabench_environments", EnvironmentSpec),
     "controller": ("gdabench_controllers", ControllerSpec),
@@ -37,11 +37,14 @@ _HOOKS: dict[Kind, tuple[str, type]] = {
 }
 
 
+S = TypeVar("S", Spec, SuiteSpec, Any)
+
+
 @dataclass(frozen=True)
-class Registered:
+class Registered(Generic[S]):
     """A spec together with where it came from."""
 
-    spec: Spec | SuiteSpec
+    spec: S
     plugin: str
     distribution: str
     version: str
@@ -72,7 +75,7 @@ class Registry:
         if entry_points:
             self._load_entry_points()
         self._check_hooks()
-        self._items: dict[Kind, dict[str, Registered]] = {kind: self._collect(kind) for kind in _HOOKS}
+        self._items: dict[Kind, dict[str, Registered[Any]]] = {kind: self._collect(kind) for kind in _HOOKS}
 
     # -- loading -----------------------------------------------------------------------------
     def _register(self, plugin: Any, name: str, dist: str, version: str) -> None:
@@ -120,9 +123,9 @@ class Registry:
                 ) from exc
             self._register(plugin, ep.name, dist, version)
 
-    def _collect(self, kind: Kind) -> dict[str, Registered]:
+    def _collect(self, kind: Kind) -> dict[str, Registered[Any]]:
         hook_name, spec_type = _HOOKS[kind]
-        found: dict[str, Registered] = {}
+        found: dict[str, Registered[Any]] = {}
         for impl in getattr(self.pm.hook, hook_name).get_hookimpls():
             dist, version = self._origin.get(impl.plugin_name, ("unknown package", ""))
             try:
@@ -150,10 +153,16 @@ class Registry:
     def names(self, kind: Kind) -> list[str]:
         return list(self._items[kind])
 
-    def items(self, kind: Kind) -> Iterator[Registered]:
+    def items(self, kind: Kind) -> Iterator[Registered[Any]]:
         return iter(self._items[kind].values())
 
-    def get(self, kind: Kind, name: str) -> Registered:
+    @overload
+    def get(self, kind: Literal["suite"], name: str) -> Registered[SuiteSpec]: ...
+    @overload
+    def get(self, kind: Literal["designer", "environment", "controller"], name: str) -> Registered[Spec]: ...
+    @overload
+    def get(self, kind: str, name: str) -> Registered[Any]: ...
+    def get(self, kind: Any, name: str) -> Registered[Any]:
         try:
             return self._items[kind][name]
         except KeyError:

@@ -36,7 +36,7 @@ import tempfile
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Mapping, Sequence
 
 import pandas as pd
 from filelock import FileLock, Timeout
@@ -358,7 +358,7 @@ class RunDirectory:
             return pd.DataFrame({c: pd.Series(dtype=object) for c in COLUMNS})
         return core_first(pd.concat(frames, ignore_index=True))
 
-    def append_generation(self, name: str, generation: int, rows: list[Mapping[str, Any]]) -> None:
+    def append_generation(self, name: str, generation: int, rows: Sequence[Mapping[str, Any]]) -> None:
         """Write one generation's rows of an unfinished trial."""
         frame = core_first(pd.DataFrame.from_records(rows))
         atomic_write_bytes(self.path / PENDING / name / f"gen-{generation:06d}.parquet", parquet_bytes(frame))

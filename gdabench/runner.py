@@ -98,6 +98,8 @@ def compare(
         run.update_meta(status="running", config=experiment.to_json(), error=None,
                         resumed=[*meta.get("resumed", []), {"at": utc_now(), **execution.to_json(), **added}])
     else:
+        if experiment is None:
+            raise ConfigError("compare() needs an experiment unless it resumes a run")
         plan = Plan.resolve(experiment, reg)
         out = Path(out) if out is not None else default_out_dir(experiment)
         run = RunDirectory.create(out, _new_meta(plan, reg, command, execution.to_json()))

@@ -36,6 +36,11 @@ def _require(condition: bool, message: str) -> None:
         raise ConformanceError(message)
 
 
+def _reward(result: float | Evaluation) -> float:
+    """What ``Environment.evaluate`` scored: its reward, with or without extras."""
+    return float(result.reward if isinstance(result, Evaluation) else result)
+
+
 def _drive(designer: Designer, env: Environment, generations: int, seen: set[str]) -> list[list[str]]:
     """ask/tell like the harness; checks every generation; returns the body texts per generation."""
     texts = []
@@ -64,7 +69,7 @@ def _drive(designer: Designer, env: Environment, generations: int, seen: set[str
                 b.hash not in seen, f"generation {g}: proposed {b.text} again (bodies must be unique within a run)"
             )
             seen.add(b.hash)
-        rewards = [float(env.evaluate(b, seed=0)) for b in bodies]
+        rewards = [_reward(env.evaluate(b, seed=0)) for b in bodies]
         rewards[0] = math.nan  # designers must cope with bodies that could not be scored
         designer.tell(bodies, rewards)
         texts.append([b.text for b in bodies])
@@ -130,11 +135,11 @@ def check_environment(
         body = random_body(rng, shape)
         _require(env.invalid_reason(body) is None, f"a valid body {body.text} was refused: {env.invalid_reason(body)}")
         result = env.evaluate(body, seed=seed, controller=controller)
-        reward = float(result.reward if isinstance(result, Evaluation) else result)
+        reward = _reward(result)
         _require(math.isfinite(reward), f"{body.text} scored {reward}")
         if env.deterministic:
             again = env.evaluate(body, seed=seed, controller=controller)
-            again_reward = float(again.reward if isinstance(again, Evaluation) else again)
+            again_reward = _reward(again)
             _require(
                 again_reward == reward, f"deterministic environment scored {body.text} {reward} then {again_reward}"
             )

@@ -58,7 +58,7 @@ class TrialHost:
         if self._executor is None:
             warm = [r for r in (spec.env.factory, spec.controller) if r is not None]
             self._executor = make_executor(self.execution, self.prebuilt, warm)
-        evaluate = self._executor.map
+        evaluate: Evaluate = self._executor.map
         if self.execution.cache is not None and spec.cache_context is not None:
             evaluate = cached(evaluate, EvaluationCache(self.execution.cache, spec.cache_context))
         strategy = instance(spec.controller, self.prebuilt).evaluation_strategy() if spec.controller else None

@@ -29,6 +29,7 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 from scipy.stats import trim_mean
 
 from .pairwise import a12
@@ -47,7 +48,7 @@ def iqm(tasks: Tasks) -> float:
     return float(trim_mean(pooled, 0.25)) if len(pooled) else math.nan
 
 
-def profile(tasks: Tasks, taus: Sequence[float]) -> np.ndarray:
+def profile(tasks: Tasks, taus: ArrayLike) -> np.ndarray:
     """Share of runs scoring above each tau, averaged over environments."""
     taus = np.asarray(taus, dtype=float)
     return np.mean([(np.asarray(t, dtype=float)[:, None] > taus[None, :]).mean(axis=0) for t in tasks], axis=0)

@@ -22,7 +22,7 @@ import math
 import os
 import re
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping, cast
 
 import numpy as np
 import pandas as pd
@@ -48,6 +48,8 @@ from .tables import summary_cells
 
 #: columns the report needs; everything else in the table is optional
 BEST_BODIES = 8
+#: a designer's best-so-far curve: evaluations, median over seeds, and its band (low, high)
+Curve = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 GENERATION_COLUMNS = 10
 REPORT_DIR = "report"
 
@@ -190,7 +192,7 @@ def _threshold(threshold: float | None, meta: dict[str, Any], envs: list[str]) -
             raise ConfigError(f"--threshold must be a finite number, got {threshold}")
         return dict.fromkeys(envs, float(threshold)), f"{threshold:g} (chosen with --threshold)"
     known = thresholds(meta)
-    targets = {env: (known.get(env) if isinstance(known, dict) else known) for env in envs}
+    targets = {env: (known.get(env) if isinstance(known, Mapping) else known) for env in envs}
     if len(envs) > 1:
         words = ", ".join(f"{env} {'unknown' if t is None else f'{t:g}'}" for env, t in targets.items())
         return targets, f"each environment's optimum ({words}); pass --threshold to count evaluations to one reward"
@@ -250,10 +252,11 @@ def definitions(confidence: float, survivors: int, near_copy: int) -> list[tuple
 
 def _best_so_far(
     frame: pd.DataFrame, designers: list[str], budget: int, confidence: float
-) -> tuple[dict[str, tuple[np.ndarray, ...]], dict[str, int], pd.DataFrame]:
+) -> tuple[dict[str, Curve], dict[str, int], pd.DataFrame]:
     """Per designer: median best-so-far curve over seeds with its bootstrap band, and as a table."""
     x = np.arange(1, budget + 1)
-    curves, seeds, parts = {}, {}, []
+    curves: dict[str, Curve] = {}
+    seeds, parts = {}, []
     for d in designers:
         mine = frame[frame["designer"] == d]
         matrix = np.array([best_so_far_curve(g, budget) for _, g in mine.groupby("seed", sort=True)])
@@ -284,7 +287,7 @@ def _body_figures(
         ]
         row = [c for c in row if c[0] is not None]
         if row:
-            best_of[d] = (row[0][0], row[0][2])
+            best_of[d] = (cast(Body, row[0][0]), row[0][2])  # None was filtered out above
         row += [(None, "", -1)] * (BEST_BODIES - len(row))
         cells += [c[0] for c in row]
         captions += [c[1] for c in row]
@@ -523,7 +526,7 @@ def _animations(
     except GdabenchError as exc:
         notes.append(f"no animations: cannot rebuild the environment ({exc})")
         return []
-    gifs = []
+    gifs: list[Figure] = []
     for designer, (body, seed) in best_of.items():
         try:
             workdir = plan.workdir(run.path, plan.envs[0].label, designer, seed, body.hash)

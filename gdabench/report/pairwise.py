@@ -30,6 +30,7 @@ from typing import Sequence
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 from scipy.stats import mannwhitneyu, wilcoxon
 
 from ..errors import ConfigError
@@ -47,7 +48,7 @@ COLUMNS = [
 ]  # fmt: skip
 
 
-def a12(x: Sequence[float], y: Sequence[float]) -> float:
+def a12(x: ArrayLike, y: ArrayLike) -> float:
     """Vargha-Delaney A12: probability that a value of ``x`` beats one of ``y``, ties counting half."""
     a, b = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     if not len(a) or not len(b):
@@ -82,7 +83,7 @@ def holm(pvalues: Sequence[float]) -> np.ndarray:
     return out
 
 
-def test_pair(x: Sequence[float], y: Sequence[float], paired: bool) -> tuple[str, float, float]:
+def test_pair(x: ArrayLike, y: ArrayLike, paired: bool) -> tuple[str, float, float]:
     """(test name, statistic, two-sided p) for ``x`` against ``y``; NaN p below two runs a side."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     name = "Wilcoxon signed-rank" if paired else "Mann-Whitney U"

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import io
 import math
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -29,7 +29,7 @@ def png(fig: Figure, dpi: int = 100) -> bytes:
     return buffer.getvalue()
 
 
-def _grid(n: int, max_cols: int = 3, size: tuple[float, float] = (4.2, 3.0)) -> tuple[Figure, np.ndarray]:
+def _grid(n: int, max_cols: int = 3, size: tuple[float, float] = (4.2, 3.0)) -> tuple[Figure, np.flatiter[Any]]:
     cols = max(1, min(max_cols, n))
     rows = max(1, math.ceil(n / cols))
     fig = Figure(figsize=(size[0] * cols, size[1] * rows + 0.4), layout="constrained")

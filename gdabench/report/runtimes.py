@@ -28,6 +28,7 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 
 from ..errors import ConfigError
 from ..execution.evaluation import COUNTED
@@ -191,7 +192,7 @@ def default_budgets(budget: int) -> list[int]:
 
 
 # -- fixed target ---------------------------------------------------------------------------------
-def expected_runtime(runtimes: Sequence[float], evaluations: Sequence[float]) -> float:
+def expected_runtime(runtimes: ArrayLike, evaluations: ArrayLike) -> float:
     """COCO's ERT: evaluations of all runs (the runtime of a successful run, all evaluations of an
     unsuccessful one, marked NaN in ``runtimes``) over the number of successes; inf without any."""
     rt = np.asarray(runtimes, dtype=float)

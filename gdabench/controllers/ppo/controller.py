@@ -86,7 +86,7 @@ class PPO(Controller):
         return {"settings": settings, "seed": int(seed), "compiled": self.compiled}
 
     def evaluate(self, make_env: Callable[[], Any], *, seed: int, workdir: Path | None = None) -> Evaluation:
-        if has_policy(workdir):
+        if workdir is not None and has_policy(workdir):
             saved = load_policy(workdir, self.device)
             if saved.meta.get("trained_with") == self.fingerprint(seed):
                 return Evaluation(replay_policy(saved, make_env), {"replayed": 1})

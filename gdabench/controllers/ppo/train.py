@@ -194,7 +194,7 @@ def train(
 
         interval = config.evaluation_interval
         steps, diverged = 0, False
-        losses: list[float] = []
+        losses: list[list[float]] = []
         clock = PhaseClock()
         rollouts = iter(collector)
         try:
@@ -231,6 +231,7 @@ def train(
             collector.shutdown()
             if not envs.is_closed:
                 envs.close()
+        assert best_state is not None, "the first evaluation sets it, and the last rollout is always evaluated"
         nets.load_state_dict(best_state)
     return TrainResult(
         nets=nets,

@@ -193,7 +193,9 @@ class MinibatchUpdate:
         #: seconds the first step took (it includes compiling, unless this process compiled before); None before it
         self.first_seconds: float | None = None
 
-    def _initial_adam_state(self) -> tuple[list[torch.Tensor], ...]:
+    def _initial_adam_state(
+        self,
+    ) -> tuple[list[torch.Tensor], list[torch.Tensor], list[torch.Tensor], list[torch.Tensor]]:
         """Adam's state as ``torch.optim.Adam`` would create it, created now so that the compiled
         step can take it as input (and the optimiser object holds it, as in the eager path)."""
         views, exp_avgs, exp_avg_sqs, steps = [], [], [], []

@@ -16,6 +16,7 @@ import os
 import tempfile
 from importlib import resources
 from pathlib import Path
+from typing import Any, Mapping
 
 import neat
 from neat.math_util import stat_functions
@@ -131,10 +132,11 @@ def _check_cppn(config: neat.Config, parser: configparser.ConfigParser, source: 
         raise bad("num_outputs", g.num_outputs, f"the CPPN needs {NUM_OUTPUTS} outputs, one per voxel code")
     if not g.feed_forward:
         raise bad("feed_forward", g.feed_forward, "a CPPN is a feed-forward network; set it to True")
-    for kind, known in (("activation", ACTIVATIONS), ("aggregation", AGGREGATIONS)):
+    functions: tuple[tuple[str, Mapping[str, Any]], ...] = (("activation", ACTIVATIONS), ("aggregation", AGGREGATIONS))
+    for kind, names in functions:
         default = getattr(g, f"{kind}_default")
-        if default.lower() not in ("random", "none") and default not in known:
-            raise bad(f"{kind}_default", default, f"not one of {', '.join(known)}")
+        if default.lower() not in ("random", "none") and default not in names:
+            raise bad(f"{kind}_default", default, f"not one of {', '.join(names)}")
         for name in getattr(g, f"{kind}_options"):
             if name not in known:
                 raise bad(

@@ -112,6 +112,7 @@ class RibsMapElites(Designer):
         )
         sizes = [self.population // emitters + (i < self.population % emitters) for i in range(emitters)]
         x0 = np.zeros(dim)
+        made: list[Any]
         if emitter == "gaussian":
             made = [
                 GaussianEmitter(archive, sigma=self.sigma, x0=x0, batch_size=b, seed=s)

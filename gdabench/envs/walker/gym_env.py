@@ -13,7 +13,7 @@ course scores about 10.5.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import gymnasium
 import numpy as np
@@ -102,7 +102,8 @@ class WalkerEnv(gymnasium.Env):
         ratios = np.asarray(action, dtype=np.float64).reshape(-1)
         if ratios.shape != self.action_space.shape:
             raise ValueError(
-                f"the walker expects {self.action_space.shape[0]} actions (one per actuator), got {ratios.shape[0]}"
+                f"the walker expects {cast('tuple[int]', self.action_space.shape)[0]} actions (one per actuator), "
+                f"got {ratios.shape[0]}"
             )
         if not np.isfinite(ratios).all():
             raise ValueError("walker actions must be finite numbers")

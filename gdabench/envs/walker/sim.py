@@ -22,7 +22,7 @@ from .mesh import Mesh, SpringTable, build_mesh
 
 #: the rest-length setter itself: assigning through the attribute passes pymunk's typing mixin's
 #: ``__setattr__`` first, which made setting ~100 rest lengths per step 2.5 times slower
-_SET_REST_LENGTH = pymunk.DampedSpring.rest_length.fset
+_SET_REST_LENGTH = pymunk.DampedSpring.rest_length.fset  # type: ignore[attr-defined]  # a property at run time
 
 
 @dataclass(frozen=True)
@@ -179,7 +179,7 @@ class VoxelSim:
             shape.elasticity = 0.0
             space.add(body, shape)
             self._bodies.append(body)
-        self._springs = []
+        self._springs: list[pymunk.Constraint] = []
         driven = set(m.driven.tolist())
         for s, ((a, b), rest, k) in enumerate(zip(m.spring_ends, m.spring_base, m.stiffness)):
             body_a, body_b = self._bodies[a], self._bodies[b]
