@@ -15,6 +15,8 @@ from typing import Any, Callable
 import torch
 
 from ...execution import cpu_count
+from ...torch_runtime import resolve_device
+from .config import GdaConfig
 from .speculation import Following, Speculation, WorkerError
 from .training import FitResult, Trainer, TrainerSpec, TrainJob, shared_trainer
 
@@ -121,9 +123,14 @@ class TrainingAhead(LocalTraining):
         return {**self.__dict__, "_speculation": None, "_borrow": more_than_one_cpu}
 
 
-def choose_backend(spec: TrainerSpec, setting: bool | str, eligible: bool, warm_start: bool) -> LocalTraining:
-    """Train ahead if ``setting`` is true, or 'auto' for an ``eligible`` run (then once a core is
-    lent); otherwise here."""
-    if setting is True or (setting == "auto" and eligible):
-        return TrainingAhead(spec, forced=setting is True)
-    return LocalTraining(spec, warm_start)
+def choose_backend(config: GdaConfig, shape: tuple[int, int], population: int, budget: int) -> LocalTraining:
+    """Where a run of ``budget`` evaluations in generations of ``population`` trains its models:
+    ahead with speculate=true, or with 'auto' when the run is long enough to repay it (once a
+    core is lent); otherwise here.  Compiled as ``compile`` says (see :class:`.GdaConfig`)."""
+    device = str(resolve_device(config.device, "gda"))
+    compiles = config.compiles(population, budget)
+    spec = TrainerSpec(config.schedule_args, shape, float(config.lr), compiles, config.threads, device)
+    eligible = config.may_train_ahead and config.trains_long(population, budget)
+    if config.speculate is True or (config.speculate == "auto" and eligible):
+        return TrainingAhead(spec, forced=config.speculate is True)
+    return LocalTraining(spec, config.warm_start)

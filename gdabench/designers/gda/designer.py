@@ -54,7 +54,7 @@ from ...body import Body, as_body, invalid_reason, mutate, random_body
 from ...designer import Designer, top_k
 from ...errors import GdabenchError
 from ...params import config_signature
-from ...torch_runtime import resolve_device, torch_threads
+from ...torch_runtime import torch_threads
 from .backend import Borrow, choose_backend
 from .config import GdaConfig
 from .encoding import decode, encode, published_reencoding
@@ -62,7 +62,7 @@ from .prior import load_prior
 from .quotas import ByCategory, FirstNew, Quota
 from .sampling import ancestral_sample, ddim_sample, denoise, noised
 from .surrogate import ridge_predictor
-from .training import TrainerSpec, TrainJob
+from .training import TrainJob
 
 TORCH_STREAM = 1  # spawn-key branch of the designer's seed used for torch (weights, noise)
 MUTATION_RATE = 0.1  # the hybrid schedule's GA generations mutate as ``ga`` does by default
@@ -118,17 +118,7 @@ class GenerationalDiffusion(Designer):
         self.config = config = GdaConfig(**{k: v for k, v in params.items() if k in _OWN})
         config.check_population(self.population)
         self.prior_bodies = load_prior(config.prior, config.prior_top, self.shape) if config.prior else []
-        compiles = config.compiles(self.population, self.budget)
-        spec = TrainerSpec(
-            config.schedule_args,
-            self.shape,
-            float(config.lr),
-            compiles,
-            config.threads,
-            str(resolve_device(config.device, "gda")),
-        )
-        eligible = config.may_train_ahead and config.trains_long(self.population, self.budget)
-        self._training = choose_backend(spec, config.speculate, eligible, config.warm_start)
+        self._training = choose_backend(config, self.shape, self.population, self.budget)
 
         self.survivors: list[Survivor] = []
         self.evaluated: list[tuple[np.ndarray, float]] = []  # every told body, for the pool's reward model
@@ -189,9 +179,8 @@ class GenerationalDiffusion(Designer):
             "train_loss": trained.result.loss,
             "train_seconds": trained.result.seconds,
             "trained_ahead": trained.ahead,
-            "compiled": bool(
-                self._training.trainer.compile
-            ),  # False also after torch.compile failed and gda went on eagerly
+            # False also after torch.compile failed and gda went on eagerly
+            "compiled": bool(self._training.trainer.compile),
             "samples_drawn": drawn,
             "sample_seconds": sample_seconds,
         }
