@@ -138,11 +138,11 @@ def _check_cppn(config: neat.Config, parser: configparser.ConfigParser, source: 
         if default.lower() not in ("random", "none") and default not in names:
             raise bad(f"{kind}_default", default, f"not one of {', '.join(names)}")
         for name in getattr(g, f"{kind}_options"):
-            if name not in known:
+            if name not in names:
                 raise bad(
                     f"{kind}_options",
                     " ".join(getattr(g, f"{kind}_options")),
-                    f"{name!r} is not one of {', '.join(known)}",
+                    f"{name!r} is not one of {', '.join(names)}",
                 )
 
 
