@@ -693,7 +693,8 @@ def test_category_filtered_sampling_fills_each_share_in_sampling_order(monkeypat
             by_category[c].append(np.array(child.voxels))
     # the model's stream: 20 novel shapes, then only 2 near-copies, then 10 new materials
     stream = by_category[3][:20] + by_category[1][:2] + by_category[2][:10]
-    monkeypatch.setattr(designer, "_draw", lambda n, generator: np.stack([stream.pop(0) if stream else np.zeros((5, 5), np.int8) for _ in range(n)]))
+    drawn = lambda n: np.stack([stream.pop(0) if stream else np.zeros((5, 5), np.int8) for _ in range(n)])  # noqa: E731
+    monkeypatch.setattr(gda_designer, "ancestral_sample", lambda model, schedule, n, *rest: torch.from_numpy(encode(drawn(n)))[:, None])
     bodies = [b.voxels for b in designer.ask()]
     # quotas 3/3/4 of 10: both near-copies, the first 3 new materials, the first 4 novel shapes, and the
     # missing near-copy filled by the first surplus body in sampling order (the 5th novel shape)
