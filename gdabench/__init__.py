@@ -11,6 +11,10 @@ from .body import DEFAULT_SHAPE, EMPTY, H_ACT, RIGID, SOFT, V_ACT, Body, as_body
 from .config import Experiment, PluginChoice
 from .designer import Designer, ranking_rewards, top_k
 from .environment import Controller, Environment, Evaluation
+from .envs import (
+    voxel as _voxel,  # noqa: F401 - registers gdabench/Walker-v2 with Gymnasium (Numba loads on make)
+    walker as _walker,  # noqa: F401 - registers gdabench/Walker-v1 with Gymnasium (pymunk loads on make)
+)
 from .errors import (
     ConfigError,
     DesignerError,
@@ -24,8 +28,6 @@ from .hookspecs import hookimpl
 from .plugins import registry
 from .seeding import designer_seed
 from .specs import ControllerSpec, DesignerSpec, EnvironmentSpec
-from .envs import voxel as _voxel  # noqa: F401,E402 - registers gdabench/Walker-v2 with Gymnasium (Numba loads on make)
-from .envs import walker as _walker  # noqa: F401,E402 - registers gdabench/Walker-v1 with Gymnasium (pymunk loads on make)
 
 __version__ = "0.1.0"
 

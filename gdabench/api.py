@@ -21,10 +21,10 @@ import pandas as pd
 
 from .body import parse_shape
 from .config import Experiment, PluginChoice, parse_seeds
+from .events import RunListener
 from .execution.options import Execution
 from .plugins import Registry
 from .results import RunDirectory
-from .events import RunListener
 from .runner import compare as run_experiment
 
 Choices = str | PluginChoice | Sequence[str | PluginChoice]

@@ -27,6 +27,8 @@ class Body:
     """An immutable (H, W) grid of voxel codes (0 empty, 1 rigid, 2 soft, 3/4 actuators)."""
 
     __slots__ = ("_voxels", "_hash")
+    _voxels: np.ndarray
+    _hash: str
 
     def __init__(self, voxels: Body | np.ndarray | Sequence[Sequence[int]]):
         if isinstance(voxels, Body):
@@ -57,7 +59,7 @@ class Body:
 
     @property
     def shape(self) -> tuple[int, int]:
-        return self._voxels.shape  # type: ignore[return-value]
+        return self._voxels.shape
 
     @property
     def hash(self) -> str:
@@ -166,7 +168,7 @@ def is_valid(voxels: Body | np.ndarray) -> bool:
 def random_body(
     rng: np.random.Generator,
     shape: tuple[int, int] = DEFAULT_SHAPE,
-    weights: Sequence[float] = EVOGYM_VOXEL_WEIGHTS,
+    weights: Sequence[float] | np.ndarray = EVOGYM_VOXEL_WEIGHTS,
     exclude: Iterable[str] | None = None,
     max_draws: int = 100_000,
 ) -> Body:
@@ -217,7 +219,7 @@ def mutate(
     rng: np.random.Generator,
     rate: float = 0.1,
     attempts: int = 50,
-    weights: Sequence[float] = EVOGYM_VOXEL_WEIGHTS,
+    weights: Sequence[float] | np.ndarray = EVOGYM_VOXEL_WEIGHTS,
 ) -> Body | None:
     """Evolution Gym's ``mutate``: each voxel of a copy is redrawn from ``weights`` with
     probability ``rate``; the same copy is mutated again (up to ``attempts`` times) until it is

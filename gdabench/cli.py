@@ -14,7 +14,7 @@ import signal
 import sys
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
-from typing import Annotated, Any, Callable, Optional, get_type_hints
+from typing import Annotated, Any, Callable, Literal, Optional, cast, get_type_hints
 
 import typer
 from rich.console import Console
@@ -25,14 +25,14 @@ from .body import parse_shape
 from .config import Experiment, PluginChoice, parse_params, parse_seeds
 from .errors import ConfigError, GdabenchError, RunFailure, Terminated
 from .execution.options import Execution
+from .experiment_file import ExperimentFile, load as load_experiment
+from .loggers import make_logger
 from .plugins import KINDS, registry
+from .progress import ProgressDisplay
 from .report.diversity import NEAR_COPY, SURVIVORS
 from .report.summary import failure_counts, summarize, thresholds
 from .report.tables import summary_cells
 from .results import RunDirectory
-from .loggers import make_logger
-from .experiment_file import ExperimentFile, load as load_experiment
-from .progress import ProgressDisplay
 from .runner import compare as run_compare, default_out_dir, with_added_seeds
 
 try:  # typer >= 0.2x carries its own copy of click
@@ -50,7 +50,13 @@ app = typer.Typer(
 console = Console()
 err_console = Console(stderr=True)
 
-KIND_ALIASES = {"designers": "designer", "envs": "environment", "environments": "environment", "controllers": "controller", "suites": "suite"}
+KIND_ALIASES = {
+    "designers": "designer",
+    "envs": "environment",
+    "environments": "environment",
+    "controllers": "controller",
+    "suites": "suite",
+}
 
 
 def _fail(message: str, code: int) -> typer.Exit:
@@ -67,7 +73,7 @@ class _Guard:
     def __enter__(self) -> _Guard:
         return self
 
-    def __exit__(self, exc_type, exc, tb) -> bool:
+    def __exit__(self, exc_type, exc, tb) -> Literal[False]:
         if exc is None or isinstance(exc, (typer.Exit, typer.Abort, SystemExit)):
             return False
         if os.environ.get("GDABENCH_DEBUG"):
@@ -76,7 +82,10 @@ class _Guard:
         if self.run_dir is not None and (self.run_dir / "run.json").exists():
             hint = f" (results so far are in {self.run_dir}; continue with: gdabench compare --resume {self.run_dir})"
         if isinstance(exc, KeyboardInterrupt):
-            raise _fail(f"{'terminated' if isinstance(exc, Terminated) else 'interrupted'}{hint}", 143 if isinstance(exc, Terminated) else 130)
+            raise _fail(
+                f"{'terminated' if isinstance(exc, Terminated) else 'interrupted'}{hint}",
+                143 if isinstance(exc, Terminated) else 130,
+            )
         if isinstance(exc, RunFailure):
             raise _fail(f"{exc}{hint}", 1)
         if isinstance(exc, GdabenchError):
@@ -90,7 +99,9 @@ def _kinds(kind: str | None, suites: bool = False) -> tuple[str, ...]:
     if kind is None:
         return known
     if KIND_ALIASES.get(kind, kind) not in known:
-        raise ConfigError(f"unknown kind {kind!r}; choose designers, envs, controllers" + (" or suites" if suites else ""))
+        raise ConfigError(
+            f"unknown kind {kind!r}; choose designers, envs, controllers" + (" or suites" if suites else "")
+        )
     return (KIND_ALIASES.get(kind, kind),)
 
 
@@ -108,15 +119,23 @@ def list_plugins(
             table.add_column("package")
             for item in reg.items(k):  # type: ignore[arg-type]
                 spec = item.spec
-                description = spec.description + (f" ({', '.join(spec.envs)}{f'; controller {spec.controller}' if spec.controller else ''})" if k == "suite" else "")
-                table.add_row(escape(item.name), escape(description), escape(f"{item.distribution} {item.version}".strip()))
+                description = spec.description + (
+                    f" ({', '.join(spec.envs)}{f'; controller {spec.controller}' if spec.controller else ''})"
+                    if k == "suite"
+                    else ""
+                )
+                table.add_row(
+                    escape(item.name), escape(description), escape(f"{item.distribution} {item.version}".strip())
+                )
             console.print(table)
 
 
 @app.command()
 def info(
     name: Annotated[str, typer.Argument(help="A designer, environment or controller name (see gdabench list).")],
-    kind: Annotated[Optional[str], typer.Option(help="designers, envs or controllers, where a name is used by several kinds.")] = None,
+    kind: Annotated[
+        Optional[str], typer.Option(help="designers, envs or controllers, where a name is used by several kinds.")
+    ] = None,
 ) -> None:
     """Show a plugin's parameters: type, default and what each one does."""
     from .params import describe
@@ -127,7 +146,10 @@ def info(
         if not found:
             reg.get(_kinds(kind)[0] if kind else "designer", name)  # raises the not-found error, with suggestions
         for k, item in found:
-            console.print(escape(f"{k} {item.name} ({item.distribution} {item.version}): {item.spec.description}".strip()), highlight=False)
+            console.print(
+                escape(f"{k} {item.name} ({item.distribution} {item.version}): {item.spec.description}".strip()),
+                highlight=False,
+            )
             table = Table(show_edge=False)
             for column in ("parameter", "type", "default", "description"):
                 table.add_column(column)
@@ -185,7 +207,11 @@ class RunOptions:
 
     def experiment(self, designers: str, base: ExperimentFile) -> Experiment:
         reg = registry()
-        suite = reg.get("suite", self.suite if "suite" in self.explicit else base.suite).spec if (self.suite or base.suite) else None
+        suite = (
+            reg.get("suite", cast(str, self.suite if "suite" in self.explicit else base.suite)).spec
+            if (self.suite or base.suite)
+            else None
+        )
         if "env" in self.explicit:
             envs = tuple(PluginChoice.parse_list(self.env))
         elif "suite" in self.explicit or (base.envs is None and suite is not None):
@@ -193,7 +219,11 @@ class RunOptions:
         else:
             envs = base.envs or (PluginChoice.parse(self.env),)
         env_params = parse_params(self.env_param, "environment parameter")
-        controller = PluginChoice.parse(self.controller) if "controller" in self.explicit and self.controller else base.controller
+        controller = (
+            PluginChoice.parse(self.controller)
+            if "controller" in self.explicit and self.controller
+            else base.controller
+        )
         if controller is None and suite is not None and suite.controller:
             controller = PluginChoice.parse(suite.controller)
         if self.controller_param:
@@ -201,7 +231,11 @@ class RunOptions:
                 raise ConfigError("--controller-param given without --controller")
             controller = controller.with_params(parse_params(self.controller_param, "controller parameter"))
         chosen = PluginChoice.parse_list(designers) if designers else list(base.designers or ())
-        seeds = base.seeds if not ({"seeds", "repetitions"} & self.explicit) and base.seeds else parse_seeds(self.seeds, self.repetitions)
+        seeds = (
+            base.seeds
+            if not ({"seeds", "repetitions"} & self.explicit) and base.seeds
+            else parse_seeds(self.seeds, self.repetitions)
+        )
         return Experiment(
             designers=tuple(_with_designer_params(chosen, self.designer_param)),
             envs=tuple(e.with_params(env_params) for e in envs),
@@ -220,7 +254,9 @@ class RunOptions:
             fixed.insert(0, "designers")
         if fixed:
             given = ", ".join(f"--{name.replace('_', '-')}" for name in fixed)
-            raise ConfigError(f"--resume takes the experiment from the run; {given} cannot change it (--seeds can add seeds)")
+            raise ConfigError(
+                f"--resume takes the experiment from the run; {given} cannot change it (--seeds can add seeds)"
+            )
         if not {"seeds", "repetitions"} & self.explicit:
             return stored
         return with_added_seeds(stored, replace(stored, seeds=tuple(parse_seeds(self.seeds, self.repetitions))))
@@ -241,28 +277,52 @@ RESUME_FIXED = frozenset({"config", "env", "suite", "controller", "budget", "pop
 
 #: typer's view of RunOptions: option names and help, in the order --help lists them
 RUN_OPTIONS: dict[str, Any] = {
-    "config": _option("--config", help="An experiment file (TOML, or a run's run.json to repeat it); options given here override it."),
-    "env": _option("--env", "-e", help="Environment(s), each name or name[key=value,...]; several run as a suite: simple,nk[k=4]."),
+    "config": _option(
+        "--config", help="An experiment file (TOML, or a run's run.json to repeat it); options given here override it."
+    ),
+    "env": _option(
+        "--env", "-e", help="Environment(s), each name or name[key=value,...]; several run as a suite: simple,nk[k=4]."
+    ),
     "suite": _option("--suite", help="A named suite of environments (gdabench list suites), instead of --env."),
-    "controller": _option("--controller", "-c", help="Controller for physics environments, e.g. ppo or open-loop[period=30]."),
+    "controller": _option(
+        "--controller", "-c", help="Controller for physics environments, e.g. ppo or open-loop[period=30]."
+    ),
     "budget": _option("--budget", help="Evaluations per trial (unique valid bodies)."),
     "population": _option("--population", help="Bodies per generation."),
     "seeds": _option("--seeds", help="Seeds: 0,1,2 or 0..9 (default: 0)."),
     "repetitions": _option("--repetitions", "-r", help="Number of seeds: 0..N-1 (instead of --seeds)."),
     "shape": _option("--shape", help="Body shape HxW."),
     "out": _option("--out", "-o", help="Run directory (default: results/<time>-<env>-<designers>)."),
-    "designer_param": _option("--designer-param", "-D", help="Designer parameter KEY=VALUE (all designers) or NAME.KEY=VALUE."),
+    "designer_param": _option(
+        "--designer-param", "-D", help="Designer parameter KEY=VALUE (all designers) or NAME.KEY=VALUE."
+    ),
     "env_param": _option("--env-param", "-E", help="Environment parameter KEY=VALUE."),
     "controller_param": _option("--controller-param", "-C", help="Controller parameter KEY=VALUE."),
-    "jobs": _option("--jobs", "-j", help="Trials (designer x seed) at once (default: as many as the CPUs allow --workers each)."),
-    "workers": _option("--workers", help="Evaluation processes per trial (default 1: evaluate in the trial's own process)."),
+    "jobs": _option(
+        "--jobs", "-j", help="Trials (designer x seed) at once (default: as many as the CPUs allow --workers each)."
+    ),
+    "workers": _option(
+        "--workers", help="Evaluation processes per trial (default 1: evaluate in the trial's own process)."
+    ),
     "executor": _option("--executor", help="local (processes on this machine) or ray (actors on a Ray cluster)."),
-    "ray_address": _option("--ray-address", help="Ray cluster to join: auto or HOST:PORT (default: start a local one)."),
-    "timeout": _option("--timeout", help="Seconds an evaluation may take before it is stopped and recorded as 'timeout'."),
-    "cache": _option("--cache", help="Directory of an evaluation cache shared across runs (deterministic environments)."),
-    "resume": _option("--resume", help="Continue the run in this directory (its experiment is taken from it; execution options may change, --seeds may add seeds)."),
+    "ray_address": _option(
+        "--ray-address", help="Ray cluster to join: auto or HOST:PORT (default: start a local one)."
+    ),
+    "timeout": _option(
+        "--timeout", help="Seconds an evaluation may take before it is stopped and recorded as 'timeout'."
+    ),
+    "cache": _option(
+        "--cache", help="Directory of an evaluation cache shared across runs (deterministic environments)."
+    ),
+    "resume": _option(
+        "--resume",
+        help="Continue the run in this directory (its experiment is taken from it; execution options may change, "
+             "--seeds may add seeds).",
+    ),
     "stop_at_optimum": _option("--stop-at-optimum", help="End each trial once it reaches the environment's optimum."),
-    "log": _option("--log", help="Log each generation's figures to a tracker: tensorboard (writes RUN_DIR/tensorboard)."),
+    "log": _option(
+        "--log", help="Log each generation's figures to a tracker: tensorboard (writes RUN_DIR/tensorboard)."
+    ),
     "quiet": _option("--quiet", "-q", help="No progress display."),
     "no_report": _option("--no-report", help="Only print the summary table; do not write the report (plots, HTML)."),
 }
@@ -274,13 +334,22 @@ def with_run_options(command: Callable[..., None]) -> Callable[..., None]:
     types = get_type_hints(RunOptions)
     names = [f.name for f in fields(RunOptions) if f.name in RUN_OPTIONS]
     shared = [
-        inspect.Parameter(n, inspect.Parameter.KEYWORD_ONLY, default=RunOptions.__dataclass_fields__[n].default, annotation=Annotated[types[n], RUN_OPTIONS[n]])
+        inspect.Parameter(
+            n,
+            inspect.Parameter.KEYWORD_ONLY,
+            default=RunOptions.__dataclass_fields__[n].default,
+            annotation=Annotated[types[n], RUN_OPTIONS[n]],
+        )
         for n in names
     ]
     context = inspect.Parameter("ctx", inspect.Parameter.KEYWORD_ONLY, annotation=typer.Context)
 
     def wrapper(ctx: typer.Context, **kwargs: Any) -> None:
-        given = frozenset(n for n in names if getattr(ctx.get_parameter_source(n), "name", "DEFAULT") not in ("DEFAULT", "DEFAULT_MAP"))
+        given = frozenset(
+            n
+            for n in names
+            if getattr(ctx.get_parameter_source(n), "name", "DEFAULT") not in ("DEFAULT", "DEFAULT_MAP")
+        )
         options = RunOptions(**{n: kwargs.pop(n) for n in names}, explicit=given)
         command(**kwargs, options=options)
 
@@ -314,13 +383,22 @@ def _execute(designers: str, options: RunOptions) -> None:
         done: dict[tuple[str, str, int], int] = {}
         if options.resume is not None:
             run = RunDirectory.open(options.resume)
-            experiment = options.resumed(designers, Experiment.from_json(run.meta["config"], f"{run.path / 'run.json'}: config"))
+            experiment = options.resumed(
+                designers, Experiment.from_json(run.meta["config"], f"{run.path / 'run.json'}: config")
+            )
             frame = run.load_evaluations()
             if len(frame):
-                done = {(str(k[0]), str(k[1]), int(k[2])): int(v) for k, v in frame.groupby(["env", "designer", "seed"])["n_evals"].max().items()}
+                done = {
+                    (str(k[0]), str(k[1]), int(k[2])): int(v)
+                    for k, v in frame.groupby(["env", "designer", "seed"])["n_evals"].max().items()
+                }
         else:
             experiment = options.experiment(designers, base)
-        out = options.resume or (options.out if "out" in options.explicit or base.out is None else base.out) or default_out_dir(experiment)
+        out = (
+            options.resume
+            or (options.out if "out" in options.explicit or base.out is None else base.out)
+            or default_out_dir(experiment)
+        )
         guard.run_dir = out
         reg = registry()
         for name in dict.fromkeys(options.log or []):
@@ -329,13 +407,20 @@ def _execute(designers: str, options: RunOptions) -> None:
             run = run_compare(experiment, out, resume=options.resume is not None, execution=execution, listener=display,
                               command=["gdabench", *sys.argv[1:]], reg=reg)
         for env, reason in _uncached(run, execution):
-            err_console.print(f"[yellow]note:[/] {escape(reason)}; the evaluation cache was not used for {escape(env)}", highlight=False)
+            err_console.print(
+                f"[yellow]note:[/] {escape(reason)}; the evaluation cache was not used for {escape(env)}",
+                highlight=False,
+            )
     if not options.no_report:
         with _Guard():
             try:
                 _write_report(run.path)
             except GdabenchError as exc:
-                raise _fail(f"the run is complete in {run.path}, but its report failed: {exc} (retry with: gdabench report {run.path})", 1) from None
+                raise _fail(
+                    f"the run is complete in {run.path}, but its report failed: {exc} (retry with: gdabench report "
+                    f"{run.path})",
+                    1,
+                ) from None
     else:
         _print_summary(run)
     _report_failures(run)
@@ -354,11 +439,17 @@ def _report_failures(run: RunDirectory) -> None:
     """Say which evaluations went wrong; exit 1 if a trial's every evaluation failed."""
     counts = failure_counts(run.load_evaluations())
     for row in counts.itertuples():
-        err_console.print(escape(f"note: {row.designer} on {row.env}: {row.line}"), style="yellow", highlight=False, soft_wrap=True)
+        err_console.print(
+            escape(f"note: {row.designer} on {row.env}: {row.line}"), style="yellow", highlight=False, soft_wrap=True
+        )
     hopeless = counts[counts["all_failed_trials"] > 0]
     if len(hopeless):
         first = hopeless.iloc[0]
-        raise _fail(f"every evaluation failed in {int(hopeless['all_failed_trials'].sum())} trial(s), e.g. {first['designer']} on {first['env']}", 1)
+        raise _fail(
+            f"every evaluation failed in {int(hopeless['all_failed_trials'].sum())} trial(s), e.g. "
+            f"{first['designer']} on {first['env']}",
+            1,
+        )
 
 
 def _print_table(title: str, headers: list[str], rows: list[list[str]]) -> None:
@@ -383,13 +474,20 @@ def _write_report(run_dir: Path, out: Path | None = None, **options: Any) -> Non
     _print_table(f"summary ({report.run_path})", *summary_cells(report.summary, compact=True))
     for note in report.notes:
         err_console.print(f"[yellow]note:[/] {escape(note)}", highlight=False, soft_wrap=True)
-    console.print(escape(f"report: {report.out / 'report.html'} (summary: {report.out / 'summary.md'})"), highlight=False, soft_wrap=True)
+    console.print(
+        escape(f"report: {report.out / 'report.html'} (summary: {report.out / 'summary.md'})"),
+        highlight=False,
+        soft_wrap=True,
+    )
 
 
 @app.command()
 @with_run_options
 def compare(
-    designers: Annotated[str, typer.Option("--designers", "-d", help="Comma-separated designers, e.g. ga,cppn,gda or ga[survivors=5],gda.")] = "",
+    designers: Annotated[
+        str,
+        typer.Option("--designers", "-d", help="Comma-separated designers, e.g. ga,cppn,gda or ga[survivors=5],gda."),
+    ] = "",
     *,
     options: RunOptions,
 ) -> None:
@@ -412,7 +510,9 @@ def run(
 
 @app.command()
 def evaluate(
-    body: Annotated[str, typer.Argument(help="Body in text form, rows separated by '/', e.g. 44444/44444/44444/44444/44444.")],
+    body: Annotated[
+        str, typer.Argument(help="Body in text form, rows separated by '/', e.g. 44444/44444/44444/44444/44444.")
+    ],
     env: Annotated[str, RUN_OPTIONS["env"]] = "simple",
     controller: Annotated[Optional[str], RUN_OPTIONS["controller"]] = None,
     env_param: Annotated[Optional[list[str]], RUN_OPTIONS["env_param"]] = None,
@@ -446,32 +546,55 @@ def evaluate(
 @app.command()
 def report(
     run_dir: Annotated[Path, typer.Argument(help="A run directory written by compare or run.")],
-    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Where to write the report (default: RUN_DIR/report).")] = None,
-    threshold: Annotated[
-        Optional[float], typer.Option(help="Reward whose first reach is counted in evaluations (default: the environment's optimum, if known).")
+    out: Annotated[
+        Optional[Path], typer.Option("--out", "-o", help="Where to write the report (default: RUN_DIR/report).")
     ] = None,
-    survivors: Annotated[int, typer.Option(help="Diversity: survivors = this many best bodies evaluated before a generation.")] = SURVIVORS,
-    near_copy: Annotated[int, typer.Option(help="Diversity: a proposal at most this many voxels from a survivor is a near-copy.")] = NEAR_COPY,
-    animations: Annotated[bool, typer.Option("--animations/--no-animations", help="Animate the best bodies, if the environment can render them.")] = True,
+    threshold: Annotated[
+        Optional[float],
+        typer.Option(
+            help="Reward whose first reach is counted in evaluations (default: the environment's optimum, if known)."
+        ),
+    ] = None,
+    survivors: Annotated[
+        int, typer.Option(help="Diversity: survivors = this many best bodies evaluated before a generation.")
+    ] = SURVIVORS,
+    near_copy: Annotated[
+        int, typer.Option(help="Diversity: a proposal at most this many voxels from a survivor is a near-copy.")
+    ] = NEAR_COPY,
+    animations: Annotated[
+        bool,
+        typer.Option(
+            "--animations/--no-animations", help="Animate the best bodies, if the environment can render them."
+        ),
+    ] = True,
 ) -> None:
     """Write plots, tables and a self-contained HTML report of a run directory (also mid-run)."""
     with _Guard():
-        _write_report(run_dir, out, threshold=threshold, survivors=survivors, near_copy=near_copy, animations=animations)
+        _write_report(
+            run_dir, out, threshold=threshold, survivors=survivors, near_copy=near_copy, animations=animations
+        )
 
 
 @app.command()
 def replay(
     run_dir: Annotated[Path, typer.Argument(help="A run directory written by compare or run.")],
-    body: Annotated[Optional[str], typer.Option("--body", help="Hash (or unique prefix) of the body to replay (default: the best).")] = None,
+    body: Annotated[
+        Optional[str], typer.Option("--body", help="Hash (or unique prefix) of the body to replay (default: the best).")
+    ] = None,
     designer: Annotated[Optional[str], typer.Option("--designer", help="Only consider this designer's bodies.")] = None,
-    gif: Annotated[Optional[Path], typer.Option("--gif", help="Write an animation of the body acting to this GIF file.")] = None,
+    gif: Annotated[
+        Optional[Path], typer.Option("--gif", help="Write an animation of the body acting to this GIF file.")
+    ] = None,
 ) -> None:
     """Replay a body of a run as it was scored (ppo replays the policy it saved, no retraining)."""
     with _Guard():
         from .replay import replay_run
 
         done = replay_run(run_dir, body_hash=body, designer=designer, gif=gif)
-        console.print(f"{done.designer} seed {done.seed} body {done.body.text} ({done.body.hash}): reward {done.reward:.6g}", highlight=False)
+        console.print(
+            f"{done.designer} seed {done.seed} body {done.body.text} ({done.body.hash}): reward {done.reward:.6g}",
+            highlight=False,
+        )
         if done.gif is not None:
             console.print(f"animation: {done.gif}", highlight=False)
 
@@ -480,8 +603,18 @@ def replay(
 @app.command()
 def export(
     run_dir: Annotated[Path, typer.Argument(help="A run directory written by compare or run.")],
-    format: Annotated[str, typer.Option("--format", "-f", help="ioh (IOHprofiler data for IOHanalyzer) or csv (the table, for spreadsheets).")] = "ioh",
-    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Where to write (default: RUN_DIR/export/ioh or RUN_DIR/export/evaluations.csv).")] = None,
+    format: Annotated[
+        str,
+        typer.Option(
+            "--format", "-f", help="ioh (IOHprofiler data for IOHanalyzer) or csv (the table, for spreadsheets)."
+        ),
+    ] = "ioh",
+    out: Annotated[
+        Optional[Path],
+        typer.Option(
+            "--out", "-o", help="Where to write (default: RUN_DIR/export/ioh or RUN_DIR/export/evaluations.csv)."
+        ),
+    ] = None,
 ) -> None:
     """Write a run's results in another tool's format."""
     with _Guard():
@@ -508,9 +641,13 @@ def main() -> None:
         code = 0
     except click_errors.UsageError as exc:
         hint = f" (see: {exc.ctx.command_path} --help)" if exc.ctx is not None else ""
-        err_console.print(f"[bold red]error:[/] {escape(' '.join(exc.format_message().split()))}{escape(hint)}", highlight=False, soft_wrap=True)
+        err_console.print(
+            f"[bold red]error:[/] {escape(' '.join(exc.format_message().split()))}{escape(hint)}",
+            highlight=False,
+            soft_wrap=True,
+        )
         code = 2
-    except (click_errors.Abort if hasattr(click_errors, "Abort") else typer.Abort):
+    except (click_errors.Abort if hasattr(click_errors, "Abort") else typer.Abort):  # noqa: B030 - click's Abort, wherever this version keeps it
         code = 130
     sys.exit(code if isinstance(code, int) else 0)
 

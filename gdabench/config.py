@@ -49,7 +49,9 @@ def parse_params(items: Sequence[str] | None, what: str = "parameter") -> dict[s
 
 def split_top_level(text: str, sep: str = ",") -> list[str]:
     """Split on ``sep`` outside square brackets: ``'a,b[x=1,y=2]'`` -> ``['a', 'b[x=1,y=2]']``."""
-    parts, depth, current = [], 0, []
+    parts: list[str] = []
+    current: list[str] = []
+    depth = 0
     for ch in text:
         if ch == "[":
             depth += 1
@@ -210,7 +212,9 @@ class Experiment:
             labels = [c.label for c in choices]
             if len(set(labels)) != len(labels):
                 raise ConfigError(f"{what} must not repeat: {', '.join(labels)}")
-        if len(self.shape) != 2 or not all(isinstance(s, int) and not isinstance(s, bool) and 1 <= s <= MAX_SIDE for s in self.shape):
+        if len(self.shape) != 2 or not all(
+            isinstance(s, int) and not isinstance(s, bool) and 1 <= s <= MAX_SIDE for s in self.shape
+        ):
             raise ConfigError(f"shape must be two sides from 1 to {MAX_SIDE} voxels, got {self.shape}")
         for name, value, high in (("population", self.population, MAX_POPULATION), ("budget", self.budget, MAX_BUDGET)):
             if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= high:
@@ -245,8 +249,10 @@ class Experiment:
             return cls(
                 designers=tuple(PluginChoice.from_json(d, f"{where}.designers") for d in data["designers"]),
                 envs=tuple(PluginChoice.from_json(e, f"{where}.envs") for e in envs),
-                controller=None if data.get("controller") is None else PluginChoice.from_json(data["controller"], f"{where}.controller"),
-                shape=tuple(data["shape"]),  # type: ignore[arg-type]
+                controller=None
+                if data.get("controller") is None
+                else PluginChoice.from_json(data["controller"], f"{where}.controller"),
+                shape=tuple(data["shape"]),
                 population=data["population"],
                 budget=data["budget"],
                 seeds=tuple(data["seeds"]),

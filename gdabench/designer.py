@@ -9,12 +9,14 @@ harness checkpoints designers that way after every generation to resume killed r
 from __future__ import annotations
 
 import abc
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence, TypeVar, cast
 
 import numpy as np
 
 from .body import DEFAULT_SHAPE, Body
 from .errors import ConfigError
+
+T = TypeVar("T")
 
 
 class Designer(abc.ABC):
@@ -36,7 +38,7 @@ class Designer(abc.ABC):
             raise ConfigError(f"population must be at least 1, got {population}")
         if budget < 1:
             raise ConfigError(f"budget must be at least 1, got {budget}")
-        self.shape = tuple(shape)
+        self.shape: tuple[int, int] = cast("tuple[int, int]", tuple(shape))
         self.population = int(population)
         self.budget = int(budget)
         self.seed_sequence = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
@@ -49,6 +51,12 @@ class Designer(abc.ABC):
     @abc.abstractmethod
     def tell(self, bodies: Sequence[Body], rewards: Sequence[float]) -> None:
         """Receive the rewards of the bodies returned by the last :meth:`ask` (same order)."""
+
+    def lend_cores(self, borrow: Callable[[], bool]) -> None:  # noqa: B027 - optional hook, ignored by default
+        """Offer this designer the run's spare CPU cores: ``borrow()`` is True once its trial holds
+        one more core, which it keeps until the trial ends.  The harness calls this before a
+        trial's first generation (fresh or resumed); a designer that cannot use a second core
+        ignores it (the default)."""
 
     def proposal_info(self) -> list[Mapping[str, Any]]:
         """Extra result columns for each body of the last :meth:`ask` (e.g. how it was made).
@@ -64,7 +72,7 @@ def ranking_rewards(rewards: Sequence[float]) -> np.ndarray:
     return np.where(np.isnan(r), -np.inf, r)
 
 
-def top_k(bodies: Sequence[Body], rewards: Sequence[float], k: int) -> tuple[list[Body], list[float]]:
-    """The ``k`` best bodies, best first; ties keep their input order (a stable sort)."""
+def top_k(bodies: Sequence[T], rewards: Sequence[float], k: int) -> tuple[list[T], list[float]]:
+    """The ``k`` best bodies (or anything rewards rank), best first; ties keep their input order (a stable sort)."""
     order = np.argsort(-ranking_rewards(rewards), kind="stable")[:k]
     return [bodies[i] for i in order], [float(rewards[i]) for i in order]

@@ -10,7 +10,7 @@ from __future__ import annotations
 import abc
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable, ClassVar, Mapping
+from typing import TYPE_CHECKING, Any, Callable, ClassVar, Mapping, cast
 
 from .body import DEFAULT_SHAPE, Body
 
@@ -56,12 +56,14 @@ class Environment(abc.ABC):
     version: str | None = None
 
     def __init__(self, *, shape: tuple[int, int] = DEFAULT_SHAPE):
-        self.shape = tuple(shape)
+        self.shape: tuple[int, int] = cast("tuple[int, int]", tuple(shape))
 
     def invalid_reason(self, body: Body) -> str | None:
         """Why this environment cannot score ``body``, or None.  Default: Evolution Gym's rule."""
         if body.shape != self.shape:
-            return f"shape {body.shape[0]}x{body.shape[1]} differs from the environment's {self.shape[0]}x{self.shape[1]}"
+            return (
+                f"shape {body.shape[0]}x{body.shape[1]} differs from the environment's {self.shape[0]}x{self.shape[1]}"
+            )
         return body.invalid_reason()
 
     @property
@@ -70,7 +72,9 @@ class Environment(abc.ABC):
         return None
 
     @abc.abstractmethod
-    def evaluate(self, body: Body, *, seed: int, controller: Controller | None = None, workdir: Path | None = None) -> float | Evaluation:
+    def evaluate(
+        self, body: Body, *, seed: int, controller: Controller | None = None, workdir: Path | None = None
+    ) -> float | Evaluation:
         """Score a valid body; ``seed`` drives any randomness of the evaluation."""
 
     def render_frames(

@@ -84,7 +84,9 @@ class PluginHooks(RunListener):
                 impl.function(**{arg: kwargs[arg] for arg in impl.argnames})
             except Exception as exc:  # noqa: BLE001 - a plugin's failure is the plugin's
                 self.broken.add((impl.plugin_name, name))
-                self.report(f"plugin {impl.plugin_name!r}: {name}() raised {one_line(exc)}; it is not called again in this run")
+                self.report(
+                    f"plugin {impl.plugin_name!r}: {name}() raised {one_line(exc)}; it is not called again in this run"
+                )
 
     def run_started(self, run_dir: Path, plan: Plan, resumed: bool) -> None:
         self.run_dir = run_dir
@@ -96,7 +98,14 @@ class PluginHooks(RunListener):
         from .results import core_first
 
         rows = core_first(pd.DataFrame.from_records(result.rows))
-        self._call("gdabench_generation_finished", run_dir=self.run_dir, trial=spec, generation=result.generation, rows=rows, report=result.report)
+        self._call(
+            "gdabench_generation_finished",
+            run_dir=self.run_dir,
+            trial=spec,
+            generation=result.generation,
+            rows=rows,
+            report=result.report,
+        )
 
     def trial_finished(self, spec: TrialSpec, error: str | None) -> None:
         self._call("gdabench_trial_finished", run_dir=self.run_dir, trial=spec, error=error)

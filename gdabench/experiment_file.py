@@ -27,10 +27,11 @@ Unknown keys and bad values are one-line errors naming the key and the file.
 from __future__ import annotations
 
 import json
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
+
+import tomllib
 
 from .body import parse_shape
 from .config import PluginChoice, parse_seeds
@@ -45,7 +46,7 @@ EXECUTION_KEYS = ("jobs", "workers", "executor", "timeout", "ray_address", "cach
 class ExperimentFile:
     """What a file sets; each field is None where the file is silent."""
 
-    path: Path
+    path: Path | None  # None: no file
     designers: tuple[PluginChoice, ...] | None = None
     envs: tuple[PluginChoice, ...] | None = None
     suite: str | None = None
@@ -73,8 +74,12 @@ def load(path: str | Path) -> ExperimentFile:
             raise ConfigError(f"{path}: not valid JSON ({exc})") from None
         if not isinstance(data, dict) or not isinstance(data.get("config"), dict):
             raise ConfigError(f"{path}: a JSON experiment must be a run's run.json (with a 'config' table)")
-        execution = data.get("execution") if isinstance(data.get("execution"), dict) else {}
-        return _parse({**data["config"], "execution": {k: v for k, v in execution.items() if k in EXECUTION_KEYS}}, path)
+        execution = data.get("execution")
+        if not isinstance(execution, dict):
+            execution = {}
+        return _parse(
+            {**data["config"], "execution": {k: v for k, v in execution.items() if k in EXECUTION_KEYS}}, path
+        )
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -117,7 +122,9 @@ def _parse(data: Mapping[str, Any], path: Path) -> ExperimentFile:
             raise fail("seeds", "give seeds or repetitions, not both")
         if "seeds" in data or "repetitions" in data:
             seeds = data.get("seeds")
-            found.seeds = tuple(parse_seeds(seeds if isinstance(seeds, (str, type(None))) else list(seeds), data.get("repetitions")))
+            found.seeds = tuple(
+                parse_seeds(seeds if isinstance(seeds, (str, type(None))) else list(seeds), data.get("repetitions"))
+            )
         if "stop_at_optimum" in data:
             if not isinstance(data["stop_at_optimum"], bool):
                 raise fail("stop_at_optimum", f"expected true or false, got {data['stop_at_optimum']!r}")

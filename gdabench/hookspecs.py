@@ -85,7 +85,9 @@ def gdabench_run_started(run_dir: Path, experiment: Experiment, resumed: bool) -
 
 
 @hookspec
-def gdabench_generation_finished(run_dir: Path, trial: TrialSpec, generation: int, rows: pd.DataFrame, report: GenerationReport) -> None:
+def gdabench_generation_finished(
+    run_dir: Path, trial: TrialSpec, generation: int, rows: pd.DataFrame, report: GenerationReport
+) -> None:
     """A generation of ``trial`` was written: its ``rows`` as they are in the results table, and a
     ``report`` with the trial's evaluations so far and its best reward."""
 

@@ -31,7 +31,7 @@ def signature_parameters(factory: Callable[..., Any]) -> dict[str, inspect.Param
     """Keyword parameters of ``factory`` (following ``**kwargs`` up a class's MRO); None if unknowable."""
     targets: list[Any] = [factory]
     if inspect.isclass(factory) and "__signature__" not in vars(factory):
-        targets = [c.__init__ for c in inspect.getmro(factory) if "__init__" in vars(c)]
+        targets = [vars(c)["__init__"] for c in inspect.getmro(factory) if "__init__" in vars(c)]
     found: dict[str, inspect.Parameter] = {}
     for fn in targets:
         try:
@@ -44,11 +44,25 @@ def signature_parameters(factory: Callable[..., Any]) -> dict[str, inspect.Param
         for p in sig.parameters.values():
             if p.kind is inspect.Parameter.VAR_KEYWORD:
                 var_keyword = True
-            elif p.kind in (inspect.Parameter.KEYWORD_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD) and p.name != "self":
+            elif (
+                p.kind in (inspect.Parameter.KEYWORD_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD) and p.name != "self"
+            ):
                 found.setdefault(p.name, p)
         if not var_keyword:
             return found
     return None
+
+
+def config_signature(config: type, *, more: bool = False) -> inspect.Signature:
+    """The signature to give an ``__init__(self, **params)`` that passes ``params`` to the dataclass
+    ``config``: its fields as keyword parameters, and ``**kwargs`` with ``more`` (the class's base
+    takes the rest, e.g. a designer's harness parameters)."""
+    own = [
+        p.replace(kind=inspect.Parameter.KEYWORD_ONLY)
+        for p in inspect.signature(config, eval_str=True).parameters.values()
+    ]
+    rest = [inspect.Parameter("kwargs", inspect.Parameter.VAR_KEYWORD)] if more else []
+    return inspect.Signature([inspect.Parameter("self", inspect.Parameter.POSITIONAL_OR_KEYWORD), *own, *rest])
 
 
 def convert(value: Any, annotation: Any) -> Any:
@@ -172,5 +186,7 @@ def describe(spec: Any) -> list[tuple[str, str, str, str]]:
         if name in ("shape", "population", "budget", "seed"):  # the harness passes these
             continue
         default = spec.defaults.get(name, p.default)
-        rows.append((name, _type_name(p.annotation), "required" if default is _EMPTY else repr(default), notes.get(name, "")))
+        rows.append(
+            (name, _type_name(p.annotation), "required" if default is _EMPTY else repr(default), notes.get(name, ""))
+        )
     return rows

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import json
 import re
-from pathlib import Path
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from pathlib import Path
+from typing import Any, Mapping, cast
 
 from . import seeding
 from .config import Experiment, PluginChoice
@@ -65,10 +65,17 @@ class DesignerRecipe:
 
     def build(self, shape: tuple[int, int], population: int, budget: int, seed: int) -> Designer:
         """The designer of one trial, seeded from the run's seed as every trial is."""
-        harness = dict(shape=tuple(shape), population=population, budget=budget, seed=seeding.designer_seed(seed))
+        harness = {
+            "shape": tuple(shape),
+            "population": population,
+            "budget": budget,
+            "seed": seeding.designer_seed(seed),
+        }
         designer = _build("designer", self.label, self.factory, **harness)
         if not isinstance(designer, Designer):
-            raise PluginError(f"designer {self.label!r}: factory returned {type(designer).__name__}, not a gdabench.Designer")
+            raise PluginError(
+                f"designer {self.label!r}: factory returned {type(designer).__name__}, not a gdabench.Designer"
+            )
         return designer
 
 
@@ -115,8 +122,15 @@ class TrialSpec:
 class Plan:
     """An experiment resolved against the installed plugins: recipes, trial specs, built scorers."""
 
-    def __init__(self, experiment: Experiment, envs: list[EnvRecipe], controller: Factory | None, controller_package: tuple[str, str] | None,
-                 designers: list[DesignerRecipe], built: dict[str, Any]):
+    def __init__(
+        self,
+        experiment: Experiment,
+        envs: list[EnvRecipe],
+        controller: Factory | None,
+        controller_package: tuple[str, str] | None,
+        designers: list[DesignerRecipe],
+        built: dict[str, Any],
+    ):
         self.experiment = experiment
         self.envs = envs
         self.controller = controller
@@ -139,22 +153,37 @@ class Plan:
         experiment.check()
         exp = experiment
         built: dict[str, Any] = {}
-        envs = [cls._env(reg, choice, exp, built) for choice in exp.envs]  # first: they say whether a controller belongs
+        envs = [
+            cls._env(reg, choice, exp, built) for choice in exp.envs
+        ]  # first: they say whether a controller belongs
         controller, controller_package = None, None
         if exp.controller is not None:
             item = reg.get("controller", exp.controller.name)
             controller_package = (item.distribution, item.version)
-            params = check_params("controller", exp.controller.label, item.spec.load(), {**item.spec.defaults, **exp.controller.params})
+            params = check_params(
+                "controller", exp.controller.label, item.spec.load(), {**item.spec.defaults, **exp.controller.params}
+            )
             controller = Factory.of(item.spec.factory, params)
             obj = built[controller.key()] = _build("controller", exp.controller.label, controller)
             if not isinstance(obj, Controller):
-                raise PluginError(f"controller {exp.controller.label!r}: factory returned {type(obj).__name__}, not a gdabench.Controller")
+                raise PluginError(
+                    f"controller {exp.controller.label!r}: factory returned {type(obj).__name__}, not a "
+                    f"gdabench.Controller"
+                )
         recipes = []
         for choice in exp.designers if designers else ():
             item = reg.get("designer", choice.name)
-            params = check_params("designer", choice.label, item.spec.load(), {**item.spec.defaults, **choice.params}, HARNESS_DESIGNER_ARGS)
+            params = check_params(
+                "designer",
+                choice.label,
+                item.spec.load(),
+                {**item.spec.defaults, **choice.params},
+                HARNESS_DESIGNER_ARGS,
+            )
             recipe = DesignerRecipe(choice.label, choice.name, Factory.of(item.spec.factory, params))
-            recipe.build(exp.shape, exp.population, exp.budget, exp.seeds[0])  # constructor checks, before any run starts
+            recipe.build(
+                exp.shape, exp.population, exp.budget, exp.seeds[0]
+            )  # constructor checks, before any run starts
             recipes.append(recipe)
         return cls(exp, envs, controller, controller_package, recipes, built)
 
@@ -162,7 +191,9 @@ class Plan:
     def _env(reg: Registry, choice: PluginChoice, exp: Experiment, built: dict[str, Any]) -> EnvRecipe:
         item = reg.get("environment", choice.name)
         spec = item.spec
-        params = check_params("environment", choice.label, spec.load(), {**spec.defaults, **choice.params}, HARNESS_ENV_ARGS)
+        params = check_params(
+            "environment", choice.label, spec.load(), {**spec.defaults, **choice.params}, HARNESS_ENV_ARGS
+        )
         needs_controller = bool(getattr(spec, "requires_controller", False))
         if needs_controller and exp.controller is None:
             known = ", ".join(reg.names("controller")) or "(none installed)"
@@ -172,8 +203,18 @@ class Plan:
         factory = Factory.of(spec.factory, {"shape": tuple(exp.shape), **params})
         env = built[factory.key()] = _build("environment", choice.label, factory)
         if not isinstance(env, Environment):
-            raise PluginError(f"environment {choice.label!r}: factory returned {type(env).__name__}, not a gdabench.Environment")
-        return EnvRecipe(choice.label, choice.name, factory, env.version, env.optimum, bool(env.deterministic), (item.distribution, item.version))
+            raise PluginError(
+                f"environment {choice.label!r}: factory returned {type(env).__name__}, not a gdabench.Environment"
+            )
+        return EnvRecipe(
+            choice.label,
+            choice.name,
+            factory,
+            env.version,
+            env.optimum,
+            bool(env.deterministic),
+            (item.distribution, item.version),
+        )
 
     def _trials(self) -> list[TrialSpec]:
         exp = self.experiment
@@ -187,7 +228,9 @@ class Plan:
                     name = self.trial_name(env.label, designer.label, seed)
                     clash = names.get(name.lower())
                     if clash is not None and clash != label:
-                        raise ConfigError(f"labels {clash!r} and {label!r} map to the same file name {name!r}; rename one")
+                        raise ConfigError(
+                            f"labels {clash!r} and {label!r} map to the same file name {name!r}; rename one"
+                        )
                     names[name.lower()] = label
                     constants = {
                         "designer": designer.label,
@@ -205,8 +248,24 @@ class Plan:
                         "repetition": repetition,
                     }
                     title = f"{label} seed {seed}"
-                    trials.append(TrialSpec(len(trials), name, designer, env, self.controller, seed, repetition, tuple(exp.shape),
-                                            exp.population, exp.budget, exp.stop_at_optimum, title, constants, self._contexts[env.label]))
+                    trials.append(
+                        TrialSpec(
+                            len(trials),
+                            name,
+                            designer,
+                            env,
+                            self.controller,
+                            seed,
+                            repetition,
+                            cast("tuple[int, int]", tuple(exp.shape)),
+                            exp.population,
+                            exp.budget,
+                            exp.stop_at_optimum,
+                            title,
+                            constants,
+                            self._contexts[env.label],
+                        )
+                    )
         return trials
 
     def trial_name(self, env: str, designer: str, seed: int) -> str:
@@ -237,6 +296,9 @@ class Plan:
         """The environment (the first, or the one labelled ``env_label``) and controller, as trials build them."""
         env = self.envs[0] if env_label is None else next((e for e in self.envs if e.label == env_label), None)
         if env is None:
-            raise ConfigError(f"no environment {env_label!r} in this experiment; environments: {', '.join(e.label for e in self.envs)}")
+            raise ConfigError(
+                f"no environment {env_label!r} in this experiment; environments: "
+                f"{', '.join(e.label for e in self.envs)}"
+            )
         controller = self.built[self.controller.key()] if self.controller is not None else None
         return self.built[env.factory.key()], controller

@@ -14,7 +14,7 @@ import importlib
 import os
 from dataclasses import dataclass
 from importlib import metadata
-from typing import Any, Iterator, Literal
+from typing import Any, Generic, Iterator, Literal, TypeVar, overload
 
 import pluggy
 
@@ -29,7 +29,7 @@ KINDS: tuple[Kind, ...] = ("designer", "environment", "controller")
 #: built-in plugin modules, registered under the ``gdabench`` distribution
 BUILTIN_PLUGINS = ("gdabench.designers", "gdabench.envs", "gdabench.controllers")
 
-_HOOKS: dict[Kind, tuple[str, type]] = {
+_HOOKS: dict[Kind, tuple[str, type[Any]]] = {
     "designer": ("gdabench_designers", DesignerSpec),
     "environment": ("gdabench_environments", EnvironmentSpec),
     "controller": ("gdabench_controllers", ControllerSpec),
@@ -37,11 +37,14 @@ _HOOKS: dict[Kind, tuple[str, type]] = {
 }
 
 
+S = TypeVar("S", Spec, SuiteSpec, Any)
+
+
 @dataclass(frozen=True)
-class Registered:
+class Registered(Generic[S]):
     """A spec together with where it came from."""
 
-    spec: Spec | SuiteSpec
+    spec: S
     plugin: str
     distribution: str
     version: str
@@ -72,14 +75,16 @@ class Registry:
         if entry_points:
             self._load_entry_points()
         self._check_hooks()
-        self._items: dict[Kind, dict[str, Registered]] = {kind: self._collect(kind) for kind in _HOOKS}
+        self._items: dict[Kind, dict[str, Registered[Any]]] = {kind: self._collect(kind) for kind in _HOOKS}
 
     # -- loading -----------------------------------------------------------------------------
     def _register(self, plugin: Any, name: str, dist: str, version: str) -> None:
         try:
             self.pm.register(plugin, name=name)
-        except Exception as exc:  # noqa: BLE001 - pluggy validation errors become one line
-            raise PluginError(f"plugin {name!r} from package {dist} does not follow the gdabench contract: {exc}") from exc
+        except Exception as exc:  # pluggy validation errors become one line
+            raise PluginError(
+                f"plugin {name!r} from package {dist} does not follow the gdabench contract: {exc}"
+            ) from exc
         self._origin[name] = (dist, version)
 
     def _check_hooks(self) -> None:
@@ -92,9 +97,15 @@ class Registry:
                     continue
                 marked = self.pm.parse_hookimpl_opts(plugin, attr) is not None
                 if attr not in hooks:
-                    raise PluginError(f"plugin {name!r} from package {dist}: {attr}() is not a gdabench hook (hooks: {', '.join(hooks)})")
+                    raise PluginError(
+                        f"plugin {name!r} from package {dist}: {attr}() is not a gdabench hook (hooks: "
+                        f"{', '.join(hooks)})"
+                    )
                 if not marked:
-                    raise PluginError(f"plugin {name!r} from package {dist}: {attr}() lacks the @gdabench.hookimpl marker, so it would never be called")
+                    raise PluginError(
+                        f"plugin {name!r} from package {dist}: {attr}() lacks the @gdabench.hookimpl marker, so it "
+                        f"would never be called"
+                    )
 
     def _load_entry_points(self) -> None:
         disabled = {n.strip() for n in os.environ.get("GDABENCH_DISABLE_PLUGINS", "").split(",") if n.strip()}
@@ -105,22 +116,24 @@ class Registry:
             version = ep.dist.version if ep.dist is not None else ""
             try:
                 plugin = ep.load()
-            except Exception as exc:  # noqa: BLE001
+            except Exception as exc:
                 raise PluginError(
                     f"plugin {ep.name!r} from package {dist} failed to import: {type(exc).__name__}: {exc} "
                     f"(fix or uninstall it, or set GDABENCH_DISABLE_PLUGINS={ep.name})"
                 ) from exc
             self._register(plugin, ep.name, dist, version)
 
-    def _collect(self, kind: Kind) -> dict[str, Registered]:
+    def _collect(self, kind: Kind) -> dict[str, Registered[Any]]:
         hook_name, spec_type = _HOOKS[kind]
-        found: dict[str, Registered] = {}
+        found: dict[str, Registered[Any]] = {}
         for impl in getattr(self.pm.hook, hook_name).get_hookimpls():
             dist, version = self._origin.get(impl.plugin_name, ("unknown package", ""))
             try:
                 specs = list(impl.function() or [])
-            except Exception as exc:  # noqa: BLE001
-                raise PluginError(f"plugin {impl.plugin_name!r} from package {dist}: {hook_name}() raised {type(exc).__name__}: {exc}") from exc
+            except Exception as exc:
+                raise PluginError(
+                    f"plugin {impl.plugin_name!r} from package {dist}: {hook_name}() raised {type(exc).__name__}: {exc}"
+                ) from exc
             for spec in specs:
                 if not isinstance(spec, spec_type):
                     raise PluginError(
@@ -140,21 +153,29 @@ class Registry:
     def names(self, kind: Kind) -> list[str]:
         return list(self._items[kind])
 
-    def items(self, kind: Kind) -> Iterator[Registered]:
+    def items(self, kind: Kind) -> Iterator[Registered[Any]]:
         return iter(self._items[kind].values())
 
-    def get(self, kind: Kind, name: str) -> Registered:
+    @overload
+    def get(self, kind: Literal["suite"], name: str) -> Registered[SuiteSpec]: ...
+    @overload
+    def get(self, kind: Literal["designer", "environment", "controller"], name: str) -> Registered[Spec]: ...
+    @overload
+    def get(self, kind: str, name: str) -> Registered[Any]: ...
+    def get(self, kind: Any, name: str) -> Registered[Any]:
         try:
             return self._items[kind][name]
         except KeyError:
             known = self.names(kind)
             close = difflib.get_close_matches(name, known, n=1)
             hint = f" Did you mean {close[0]!r}?" if close else ""
-            raise UnknownPluginError(f"unknown {kind} {name!r}; known {kind}s: {', '.join(known) or '(none)'}.{hint}") from None
+            raise UnknownPluginError(
+                f"unknown {kind} {name!r}; known {kind}s: {', '.join(known) or '(none)'}.{hint}"
+            ) from None
 
     def distributions(self) -> dict[str, str]:
         """Distribution name -> version of every registered plugin (for run.json)."""
-        return {dist: version for dist, version in sorted(self._origin.values())}
+        return dict(sorted(self._origin.values()))
 
 
 _default: Registry | None = None

@@ -8,11 +8,19 @@ from __future__ import annotations
 
 from rich.console import Console
 from rich.markup import escape
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskID, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TaskID,
+    TextColumn,
+    TimeElapsedColumn,
+    TimeRemainingColumn,
+)
 
 from .config import Experiment
-from .plan import TrialSpec
 from .events import RunListener
+from .plan import TrialSpec
 from .trial import GenerationResult
 
 
@@ -40,13 +48,19 @@ class ProgressDisplay(RunListener):
     def trial_started(self, spec: TrialSpec) -> None:
         if not self.progress.live.is_started:
             self.progress.start()
-        self.lines[spec.index] = self.progress.add_task(escape(f"  {spec.title}"), total=self.budget, completed=self.done.get(spec.key, 0))
+        self.lines[spec.index] = self.progress.add_task(
+            escape(f"  {spec.title}"), total=self.budget, completed=self.done.get(spec.key, 0)
+        )
 
     def generation(self, spec: TrialSpec, result: GenerationResult) -> None:
         report = result.report
         self.done[spec.key] = report.n_evals
         best = "-" if report.best != report.best else f"{report.best:.4g}"
-        self.progress.update(self.lines[spec.index], completed=report.n_evals, description=escape(f"  {spec.title} gen {report.generation} best {best}"))
+        self.progress.update(
+            self.lines[spec.index],
+            completed=report.n_evals,
+            description=escape(f"  {spec.title} gen {report.generation} best {best}"),
+        )
         self.progress.update(self.total, completed=sum(self.done.values()))
 
     def trial_finished(self, spec: TrialSpec, error: str | None) -> None:

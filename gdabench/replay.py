@@ -39,19 +39,26 @@ def pick_body(frame: pd.DataFrame, body_hash: str | None = None, designer: str |
     if designer is not None:
         rows = rows[rows["designer"] == designer]
         if rows.empty:
-            raise ConfigError(f"no scored body of designer {designer!r} in this run; designers: {', '.join(sorted(set(frame['designer'])))}")
+            raise ConfigError(
+                f"no scored body of designer {designer!r} in this run; designers: "
+                f"{', '.join(sorted(set(frame['designer'])))}"
+            )
     if body_hash is not None:
         rows = rows[rows["body_hash"].astype(str).str.startswith(body_hash)]
         if rows.empty:
             raise ConfigError(f"no scored body with hash {body_hash!r} in this run")
         if rows["body_hash"].nunique() > 1:
-            raise ConfigError(f"hash prefix {body_hash!r} matches {rows['body_hash'].nunique()} bodies; give more characters")
+            raise ConfigError(
+                f"hash prefix {body_hash!r} matches {rows['body_hash'].nunique()} bodies; give more characters"
+            )
     if rows.empty:
         raise RunDirectoryError("this run has no scored body to replay")
     return rows.loc[rows["reward"].idxmax()]
 
 
-def replay_run(run_dir: str | Path, *, body_hash: str | None = None, designer: str | None = None, gif: Path | None = None) -> Replayed:
+def replay_run(
+    run_dir: str | Path, *, body_hash: str | None = None, designer: str | None = None, gif: Path | None = None
+) -> Replayed:
     """Replay one body of a run (the best unless ``body_hash`` says otherwise); write a GIF if asked."""
     run = RunDirectory.open(run_dir)
     row = pick_body(run.load_evaluations(), body_hash, designer)

@@ -36,7 +36,7 @@ import tempfile
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Mapping, Sequence
 
 import pandas as pd
 from filelock import FileLock, Timeout
@@ -60,7 +60,8 @@ COLUMNS: dict[str, str] = {
     "designer": "designer label as given (name, or name[params])",
     "designer_name": "registered designer name",
     "env": "environment label as given (name, or name[params])",
-    "env_version": "version of the environment's dynamics or scoring, e.g. gdabench/Walker-v1 ('' when it declares none)",
+    "env_version": "version of the environment's dynamics or scoring, e.g. gdabench/Walker-v1 ('' when it declares "
+                   "none)",
     "controller": "controller label ('' when the environment needs none)",
     "designer_params": "designer parameters as JSON (defaults included, converted to their declared types)",
     "env_params": "environment parameters as JSON",
@@ -149,7 +150,12 @@ def versions(distributions: Mapping[str, str]) -> dict[str, Any]:
 
 
 def platform_info() -> dict[str, Any]:
-    return {"system": platform.system(), "release": platform.release(), "machine": platform.machine(), "cpus": os.cpu_count()}
+    return {
+        "system": platform.system(),
+        "release": platform.release(),
+        "machine": platform.machine(),
+        "cpus": os.cpu_count(),
+    }
 
 
 @dataclass
@@ -199,7 +205,9 @@ class RunDirectory:
         run.lock()
         try:
             if any(entry not in (LOCK, WRITER) for entry in os.listdir(run.path)):
-                raise ConfigError(f"output directory {run.path} already exists and is not empty; choose another --out or --resume it")
+                raise ConfigError(
+                    f"output directory {run.path} already exists and is not empty; choose another --out or --resume it"
+                )
             run.write_meta({"format": FORMAT, **meta})
         except BaseException:
             run.unlock()
@@ -229,12 +237,18 @@ class RunDirectory:
         try:
             lock.acquire()
         except Timeout:
-            raise RunLockedError(f"run {self.path} is being written by {self._writer()}; wait for it to end, or stop it first") from None
+            raise RunLockedError(
+                f"run {self.path} is being written by {self._writer()}; wait for it to end, or stop it first"
+            ) from None
         except OSError as exc:
             raise ConfigError(f"cannot lock the run directory {self.path}: {exc.strerror or exc}") from None
         self._lock = lock
         # temporary files a writer left when it died (the report folder is not the run's to clean)
-        for stale in [*self.path.glob(".*.tmp"), *self.path.glob(f"{PENDING}/*/.*.tmp"), *self.path.glob(f"{CHECKPOINTS}/.*.tmp")]:
+        for stale in [
+            *self.path.glob(".*.tmp"),
+            *self.path.glob(f"{PENDING}/*/.*.tmp"),
+            *self.path.glob(f"{CHECKPOINTS}/.*.tmp"),
+        ]:
             stale.unlink(missing_ok=True)
         writer = {"pid": os.getpid(), "host": socket.gethostname(), "since": utc_now()}
         try:
@@ -297,7 +311,9 @@ class RunDirectory:
             raise RunDirectoryError(f"cannot read {path}: {type(exc).__name__}: {exc}") from None
         missing = [c for c in REQUIRED_COLUMNS if c not in frame.columns]
         if missing:
-            raise RunDirectoryError(f"{path} lacks the column(s) {', '.join(missing)}: not a gdabench evaluations table")
+            raise RunDirectoryError(
+                f"{path} lacks the column(s) {', '.join(missing)}: not a gdabench evaluations table"
+            )
         return frame
 
     def _finished(self) -> pd.DataFrame | None:
@@ -342,7 +358,7 @@ class RunDirectory:
             return pd.DataFrame({c: pd.Series(dtype=object) for c in COLUMNS})
         return core_first(pd.concat(frames, ignore_index=True))
 
-    def append_generation(self, name: str, generation: int, rows: list[Mapping[str, Any]]) -> None:
+    def append_generation(self, name: str, generation: int, rows: Sequence[Mapping[str, Any]]) -> None:
         """Write one generation's rows of an unfinished trial."""
         frame = core_first(pd.DataFrame.from_records(rows))
         atomic_write_bytes(self.path / PENDING / name / f"gen-{generation:06d}.parquet", parquet_bytes(frame))
@@ -364,7 +380,9 @@ class RunDirectory:
         if rows is not None:
             finished = self._finished()
             merged = rows if finished is None else pd.concat([finished, rows], ignore_index=True)
-            position = [order((str(e), str(d), int(s))) for e, d, s in merged[TRIAL_KEY].itertuples(index=False, name=None)]
+            position = [
+                order((str(e), str(d), int(s))) for e, d, s in merged[TRIAL_KEY].itertuples(index=False, name=None)
+            ]
             merged = merged.iloc[sorted(range(len(merged)), key=position.__getitem__)].reset_index(drop=True)
             atomic_write_bytes(self.evaluations_path, parquet_bytes(core_first(merged)))
             faults.point("trial-merged")

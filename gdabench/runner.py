@@ -26,9 +26,9 @@ from typing import Any, Iterator, Sequence
 from . import faults
 from .config import Experiment, format_seeds
 from .errors import ConfigError, GdabenchError, RunDirectoryError, RunFailure, Terminated, TrialError, one_line
+from .events import Listeners, PluginHooks, RunListener
 from .execution import cores
 from .execution.options import Execution, cpu_count
-from .events import Listeners, PluginHooks, RunListener
 from .execution.trials import InProcess, LocalProcesses, TrialHost, TrialWorkers
 from .plan import Plan, TrialSpec
 from .plugins import Registry, registry
@@ -111,6 +111,8 @@ def compare(
         run.update_meta(status="running", config=experiment.to_json(), error=None,
                         resumed=[*meta.get("resumed", []), {"at": utc_now(), **execution.to_json(), **added}])
     else:
+        if experiment is None:
+            raise ConfigError("compare() needs an experiment unless it resumes a run")
         plan = Plan.resolve(experiment, reg)
         out = Path(out) if out is not None else default_out_dir(experiment)
         run = RunDirectory.create(out, _new_meta(plan, reg, command, execution.to_json()))
@@ -119,14 +121,22 @@ def compare(
         with _signals_interrupt():
             failures = _run_trials(plan, run, execution, listener)
             if failures:
-                run.update_meta(failed_trials=[{"trial": plan.trials[i].title, "name": plan.trials[i].name, "error": e} for i, e in sorted(failures.items())])
+                run.update_meta(
+                    failed_trials=[
+                        {"trial": plan.trials[i].title, "name": plan.trials[i].name, "error": e}
+                        for i, e in sorted(failures.items())
+                    ]
+                )
                 raise TrialError(_failure_line(plan, failures))
             summary = summarize(run.load_evaluations(), {e.label: e.optimum for e in plan.envs})
             summary.to_csv(run.path / SUMMARY, index=False)
             run.update_meta(status="complete", finished=utc_now(), failed_trials=[])
     except KeyboardInterrupt as exc:
         with _uninterrupted():
-            run.update_meta(status="interrupted", error="terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted by the user")
+            run.update_meta(
+                status="interrupted",
+                error="terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted by the user",
+            )
             listener.run_finished(run.path, "interrupted", None)
         raise
     except BaseException as exc:
@@ -149,12 +159,19 @@ def with_added_seeds(stored: Experiment, given: Experiment | None) -> Experiment
     """
     if given is None or given == stored:
         return stored
-    changed = [f.name for f in fields(Experiment) if f.name != "seeds" and getattr(given, f.name) != getattr(stored, f.name)]
+    changed = [
+        f.name for f in fields(Experiment) if f.name != "seeds" and getattr(given, f.name) != getattr(stored, f.name)
+    ]
     if changed:
-        raise ConfigError(f"a resumed run keeps its experiment ({', '.join(changed)} would change); only seeds can be added")
+        raise ConfigError(
+            f"a resumed run keeps its experiment ({', '.join(changed)} would change); only seeds can be added"
+        )
     dropped = [s for s in stored.seeds if s not in given.seeds]
     if dropped:
-        raise ConfigError(f"the run has seeds {format_seeds(stored.seeds)}; resuming can add seeds but not drop {format_seeds(dropped)}")
+        raise ConfigError(
+            f"the run has seeds {format_seeds(stored.seeds)}; resuming can add seeds but not drop "
+            f"{format_seeds(dropped)}"
+        )
     return replace(stored, seeds=stored.seeds + tuple(s for s in given.seeds if s not in stored.seeds))
 
 
@@ -215,7 +232,9 @@ class _SpareCores:
 
 
 @contextlib.contextmanager
-def _trial_workers(plan: Plan, run: RunDirectory, execution: Execution, trials: int) -> Iterator[tuple[TrialWorkers, int, _SpareCores | None]]:
+def _trial_workers(
+    plan: Plan, run: RunDirectory, execution: Execution, trials: int
+) -> Iterator[tuple[TrialWorkers, int, _SpareCores | None]]:
     """Where this run's trials go, how many at once, and the cores they may borrow."""
     run_id = run.meta["run_id"]
     if execution.executor == "ray":
@@ -223,7 +242,11 @@ def _trial_workers(plan: Plan, run: RunDirectory, execution: Execution, trials: 
         from .execution.trials import RayActors
 
         with RayConnection(execution.ray_address) as connection:
-            yield RayActors(connection.ray, run_id, run.path, execution), execution.jobs_for(trials, connection.cpus()), None
+            yield (
+                RayActors(connection.ray, run_id, run.path, execution),
+                execution.jobs_for(trials, connection.cpus()),
+                None,
+            )
         return
     jobs = execution.jobs_for(trials)
     spare = _SpareCores(execution.jobs or cpu_count()) if execution.workers == 1 else None
@@ -263,7 +286,9 @@ def _run_trials(plan: Plan, run: RunDirectory, execution: Execution, listener: R
                         failures[spec.index] = str(exc)
                         listener.trial_finished(spec, str(exc))
                         continue
-                    done = run.pending_rows(spec.name, before_generation=checkpoint.next_generation if checkpoint else 0)
+                    done = run.pending_rows(
+                        spec.name, before_generation=checkpoint.next_generation if checkpoint else 0
+                    )
                     worker = idle.pop() if idle else workers.start()
                     workers.call(worker, "open", spec, checkpoint, done)
                     running[worker] = spec
@@ -315,4 +340,6 @@ def _load_checkpoint(run: RunDirectory, spec: TrialSpec) -> Checkpoint | None:
     try:
         return pickle.loads(data)
     except Exception as exc:  # noqa: BLE001 - any unreadable checkpoint is one line for the user
-        raise RunDirectoryError(f"cannot restore checkpoint {run.checkpoint_path(spec.name)}: {one_line(exc)}") from None
+        raise RunDirectoryError(
+            f"cannot restore checkpoint {run.checkpoint_path(spec.name)}: {one_line(exc)}"
+        ) from None

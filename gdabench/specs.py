@@ -22,7 +22,7 @@ def _load(factory: str | Callable[..., Any], kind: str, name: str) -> Callable[.
         obj: Any = importlib.import_module(module_name)
         for part in attr.split("."):
             obj = getattr(obj, part)
-    except Exception as exc:  # noqa: BLE001 - any import failure is the plugin's, reported in one line
+    except Exception as exc:  # any import failure is the plugin's, reported in one line
         raise PluginError(f"{kind} {name!r}: cannot load {factory!r}: {type(exc).__name__}: {exc}") from exc
     return obj
 
@@ -57,9 +57,13 @@ class Spec:
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name or any(c in self.name for c in " ,[]="):
-            raise PluginError(f"invalid {self.kind} name {self.name!r}: use a non-empty name without spaces, commas, brackets or '='")
+            raise PluginError(
+                f"invalid {self.kind} name {self.name!r}: use a non-empty name without spaces, commas, brackets or '='"
+            )
         if isinstance(self.factory, str) and ":" not in self.factory:
-            raise PluginError(f"{self.kind} {self.name!r}: factory {self.factory!r} must look like 'package.module:attribute'")
+            raise PluginError(
+                f"{self.kind} {self.name!r}: factory {self.factory!r} must look like 'package.module:attribute'"
+            )
 
     def load(self) -> Callable[..., Any]:
         """Import and return the factory."""
@@ -112,7 +116,9 @@ class SuiteSpec:
 
     def __post_init__(self) -> None:
         if not self.name or any(c in self.name for c in " ,[]="):
-            raise PluginError(f"invalid suite name {self.name!r}: use a non-empty name without spaces, commas, brackets or '='")
+            raise PluginError(
+                f"invalid suite name {self.name!r}: use a non-empty name without spaces, commas, brackets or '='"
+            )
         if not self.envs:
             raise PluginError(f"suite {self.name!r} names no environment")
         object.__setattr__(self, "envs", tuple(self.envs))

@@ -36,21 +36,40 @@ def _require(condition: bool, message: str) -> None:
         raise ConformanceError(message)
 
 
+def _reward(result: float | Evaluation) -> float:
+    """What ``Environment.evaluate`` scored: its reward, with or without extras."""
+    return float(result.reward if isinstance(result, Evaluation) else result)
+
+
 def _drive(designer: Designer, env: Environment, generations: int, seen: set[str]) -> list[list[str]]:
     """ask/tell like the harness; checks every generation; returns the body texts per generation."""
     texts = []
     for g in range(generations):
         proposed = designer.ask()
-        _require(isinstance(proposed, (list, tuple)) and len(proposed) > 0, f"generation {g}: ask() must return a non-empty list of bodies")
+        _require(
+            isinstance(proposed, (list, tuple)) and len(proposed) > 0,
+            f"generation {g}: ask() must return a non-empty list of bodies",
+        )
         bodies = [as_body(b) for b in proposed]
         info = designer.proposal_info()
-        _require(not info or len(info) == len(bodies), f"generation {g}: proposal_info() has {len(info)} entries for {len(bodies)} bodies")
+        _require(
+            not info or len(info) == len(bodies),
+            f"generation {g}: proposal_info() has {len(info)} entries for {len(bodies)} bodies",
+        )
         for b in bodies:
-            _require(b.shape == tuple(designer.shape), f"generation {g}: body of shape {b.shape}, designer shape is {designer.shape}")
-            _require(env.invalid_reason(b) is None, f"generation {g}: proposed an invalid body {b.text} ({env.invalid_reason(b)})")
-            _require(b.hash not in seen, f"generation {g}: proposed {b.text} again (bodies must be unique within a run)")
+            _require(
+                b.shape == tuple(designer.shape),
+                f"generation {g}: body of shape {b.shape}, designer shape is {designer.shape}",
+            )
+            _require(
+                env.invalid_reason(b) is None,
+                f"generation {g}: proposed an invalid body {b.text} ({env.invalid_reason(b)})",
+            )
+            _require(
+                b.hash not in seen, f"generation {g}: proposed {b.text} again (bodies must be unique within a run)"
+            )
             seen.add(b.hash)
-        rewards = [float(env.evaluate(b, seed=0)) for b in bodies]
+        rewards = [_reward(env.evaluate(b, seed=0)) for b in bodies]
         rewards[0] = math.nan  # designers must cope with bodies that could not be scored
         designer.tell(bodies, rewards)
         texts.append([b.text for b in bodies])
@@ -71,12 +90,17 @@ def check_designer(
     env = env or SumOfVoxels(shape=shape)
 
     def new(seed: int) -> Designer:
-        designer = factory(shape=shape, population=population, budget=budget, seed=designer_seed(seed), **dict(params or {}))
+        designer = factory(
+            shape=shape, population=population, budget=budget, seed=designer_seed(seed), **dict(params or {})
+        )
         _require(isinstance(designer, Designer), f"factory returned {type(designer).__name__}, not a gdabench.Designer")
         return designer
 
     first = _drive(new(0), env, generations, set())
-    _require(first == _drive(new(0), env, generations, set()), "the same seed gave different bodies (take randomness from self.rng / the seed)")
+    _require(
+        first == _drive(new(0), env, generations, set()),
+        "the same seed gave different bodies (take randomness from self.rng / the seed)",
+    )
 
     half = generations // 2 or 1
     seen: set[str] = set()
@@ -84,7 +108,10 @@ def check_designer(
     _drive(original, env, half, seen)
     restored = pickle.loads(pickle.dumps(original))
     after_restore = _drive(restored, env, generations - half, set(seen))
-    _require(after_restore == _drive(original, env, generations - half, set(seen)), "a designer restored from pickle continued differently")
+    _require(
+        after_restore == _drive(original, env, generations - half, set(seen)),
+        "a designer restored from pickle continued differently",
+    )
 
 
 def check_environment(
@@ -99,21 +126,28 @@ def check_environment(
     """Finite rewards for valid bodies, invalid bodies refused, determinism, optimum not exceeded."""
     env = factory(shape=shape, **dict(params or {}))
     _require(isinstance(env, Environment), f"factory returned {type(env).__name__}, not a gdabench.Environment")
-    _require(not env.requires_controller or controller is not None, "this environment needs a controller: pass controller=")
+    _require(
+        not env.requires_controller or controller is not None, "this environment needs a controller: pass controller="
+    )
     rng = np.random.default_rng(seed)
     best = -math.inf
     for _ in range(bodies):
         body = random_body(rng, shape)
         _require(env.invalid_reason(body) is None, f"a valid body {body.text} was refused: {env.invalid_reason(body)}")
         result = env.evaluate(body, seed=seed, controller=controller)
-        reward = float(result.reward if isinstance(result, Evaluation) else result)
+        reward = _reward(result)
         _require(math.isfinite(reward), f"{body.text} scored {reward}")
         if env.deterministic:
             again = env.evaluate(body, seed=seed, controller=controller)
-            again_reward = float(again.reward if isinstance(again, Evaluation) else again)
-            _require(again_reward == reward, f"deterministic environment scored {body.text} {reward} then {again_reward}")
+            again_reward = _reward(again)
+            _require(
+                again_reward == reward, f"deterministic environment scored {body.text} {reward} then {again_reward}"
+            )
         best = max(best, reward)
-    _require(env.invalid_reason(Body(np.ones(shape, dtype=np.int8))) is not None, "a body without actuator was accepted as valid")
+    _require(
+        env.invalid_reason(Body(np.ones(shape, dtype=np.int8))) is not None,
+        "a body without actuator was accepted as valid",
+    )
     if env.optimum is not None:
         _require(best <= env.optimum + 1e-9, f"reward {best} exceeds the reported optimum {env.optimum}")
 
@@ -128,7 +162,9 @@ def check_controller(
 ) -> Evaluation:
     """An Evaluation with a finite reward, identical for the same seed; returns it."""
     controller = factory(**dict(params or {}))
-    _require(isinstance(controller, Controller), f"factory returned {type(controller).__name__}, not a gdabench.Controller")
+    _require(
+        isinstance(controller, Controller), f"factory returned {type(controller).__name__}, not a gdabench.Controller"
+    )
     first = controller.evaluate(make_env, seed=seed, workdir=workdir)
     _require(isinstance(first, Evaluation), f"evaluate() returned {type(first).__name__}, not a gdabench.Evaluation")
     _require(math.isfinite(first.reward), f"controller reached a non-finite reward {first.reward}")

@@ -19,7 +19,7 @@ import pickle
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Mapping
 
 import pandas as pd
 
@@ -28,14 +28,12 @@ from .body import Body, as_body
 from .designer import Designer
 from .environment import Environment
 from .errors import DesignerError, GdabenchError, one_line
-from .execution.evaluation import COUNTED, DUPLICATE, INVALID, OK, EvalOutcome, EvalTask
+from .execution.evaluation import COUNTED, DUPLICATE, INVALID, OK, EvalTask, Evaluate
 from .plan import TrialSpec
 from .results import COLUMNS, Checkpoint, utc_now
 
 #: a designer that proposes nothing new for this many generations in a row is stopped
 MAX_STALE_GENERATIONS = 20
-
-Evaluate = Callable[[Sequence[EvalTask]], list[EvalOutcome]]
 
 
 @dataclass(frozen=True)
@@ -73,7 +71,11 @@ class Trial:
     def __init__(self, spec: TrialSpec, run_id: str, env: Environment, workdir: Path, designer: Designer | None = None,
                  next_generation: int = 0, done: pd.DataFrame | None = None):
         self.spec, self.env, self.workdir = spec, env, workdir
-        self.designer = designer if designer is not None else spec.designer.build(spec.shape, spec.population, spec.budget, spec.seed)
+        self.designer = (
+            designer
+            if designer is not None
+            else spec.designer.build(spec.shape, spec.population, spec.budget, spec.seed)
+        )
         self.constants = {"run_id": run_id, **spec.constants}
         self.generation = next_generation
         self.seen: dict[str, float] = {}
@@ -84,15 +86,6 @@ class Trial:
             self.seen = dict(zip(counted["body_hash"], counted["reward"]))
             self.n_evals, self.best = len(counted), float(done["best_so_far"].iloc[-1])
             self.clock0 -= float(done["elapsed_seconds"].iloc[-1])
-
-    @classmethod
-    def restore(cls, spec: TrialSpec, run_id: str, env: Environment, workdir: Path, checkpoint: bytes | None,
-                done: pd.DataFrame | None) -> Trial:
-        """The trial as it was after its last checkpoint (``done``: the rows written before it)."""
-        if checkpoint is None:
-            return cls(spec, run_id, env, workdir)
-        state: Checkpoint = pickle.loads(checkpoint)
-        return cls(spec, run_id, env, workdir, state.designer, state.next_generation, done)
 
     @property
     def label(self) -> str:
@@ -111,7 +104,13 @@ class Trial:
         tasks: list[EvalTask] = []
         task_rows: list[int] = []
         for index, body in enumerate(bodies):
-            row = {**self.constants, "generation": self.generation, "index": index, "body": body.text, "body_hash": body.hash}
+            row = {
+                **self.constants,
+                "generation": self.generation,
+                "index": index,
+                "body": body.text,
+                "body_hash": body.hash,
+            }
             row.update(info[index] if info else {})
             reason = self.env.invalid_reason(body)
             if reason is not None:
@@ -130,8 +129,13 @@ class Trial:
 
         for row_i, task, outcome in zip(task_rows, tasks, evaluate(tasks)):
             self.seen[task.body.hash] = outcome.reward
-            rows[row_i].update(reward=outcome.reward, status=outcome.status, message=outcome.message, cached=outcome.cached,
-                               eval_seconds=outcome.seconds)
+            rows[row_i].update(
+                reward=outcome.reward,
+                status=outcome.status,
+                message=outcome.message,
+                cached=outcome.cached,
+                eval_seconds=outcome.seconds,
+            )
             rows[row_i].update(_extra(outcome.info, "environment"))
         elapsed, stamp = time.perf_counter() - self.clock0, utc_now()
         for row in rows:
@@ -143,8 +147,23 @@ class Trial:
                     self.best = row["reward"]
             row.setdefault("eval_seconds", 0.0)
             row.setdefault("cached", False)
-            row.update(n_evals=self.n_evals, best_so_far=self.best, design_seconds=design_seconds, elapsed_seconds=elapsed, timestamp=stamp)
-        report = GenerationReport(spec.designer.label, spec.env.label, spec.seed, self.generation, self.n_evals, spec.budget, len(tasks), self.best)
+            row.update(
+                n_evals=self.n_evals,
+                best_so_far=self.best,
+                design_seconds=design_seconds,
+                elapsed_seconds=elapsed,
+                timestamp=stamp,
+            )
+        report = GenerationReport(
+            spec.designer.label,
+            spec.env.label,
+            spec.seed,
+            self.generation,
+            self.n_evals,
+            spec.budget,
+            len(tasks),
+            self.best,
+        )
 
         generation = self.generation
         if self._ends(truncated, bool(tasks)):
@@ -154,11 +173,13 @@ class Trial:
             self.designer.tell([as_body(r["body"]) for r in rows], [float(r["reward"]) for r in rows])
         except GdabenchError:
             raise
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             raise DesignerError(f"{self.label} raised in tell(): {one_line(exc)}") from exc
         self.tell_seconds = time.perf_counter() - t0
         self.generation += 1
-        return GenerationResult(spec.index, generation, rows, pickle.dumps(Checkpoint(self.designer, self.generation)), report)
+        return GenerationResult(
+            spec.index, generation, rows, pickle.dumps(Checkpoint(self.designer, self.generation)), report
+        )
 
     def _ends(self, truncated: bool, evaluated: bool) -> bool:
         spec = self.spec
@@ -175,7 +196,7 @@ class Trial:
             info = list(self.designer.proposal_info() or [])
         except GdabenchError:
             raise
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             raise DesignerError(f"{self.label} raised in ask(): {one_line(exc)}") from exc
         try:
             bodies = [as_body(b) for b in proposed]

@@ -270,14 +270,17 @@ def test_aggregate_point_estimates_are_rliables():
 
 
 def test_stratified_intervals_match_rliables():
-    tx, ty = list(X.T), list(Y.T)
+    scores = pd.DataFrame(
+        [{"designer": d, "env": f"e{e}", "normalised": v} for d, m in (("x", X), ("y", Y)) for e in range(2) for v in m[:, e]]
+    )
+    iqms, profiles, improvements = agg.aggregate_scores(scores, resamples=50000, taus=TAUS)
     tol = 0.02  # bootstrap noise at 50000 resamples (a plain mean instead of the IQM is off by 0.04)
-    low, high = agg.stratified_bootstrap(agg._iqm_rows, tx, resamples=50000)
-    np.testing.assert_allclose([low, high], RLIABLE["iqm_ci"], atol=tol)
-    low, high = agg.stratified_bootstrap(agg._profile_rows(TAUS), tx, resamples=50000)
-    np.testing.assert_allclose([low, high], RLIABLE["profile_ci"], atol=tol)
-    low, high = agg.stratified_bootstrap(agg._improvement_rows, tx, ty, resamples=50000)
-    np.testing.assert_allclose([low, high], RLIABLE["poi_ci"], atol=tol)
+    x = iqms.set_index("designer").loc["x"]
+    np.testing.assert_allclose([x["ci_low"], x["ci_high"]], RLIABLE["iqm_ci"], atol=tol)
+    x = profiles[profiles["designer"] == "x"]
+    np.testing.assert_allclose([x["ci_low"], x["ci_high"]], RLIABLE["profile_ci"], atol=tol)
+    x = improvements.set_index(["designer_x", "designer_y"]).loc[("x", "y")]
+    np.testing.assert_allclose([x["ci_low"], x["ci_high"]], RLIABLE["poi_ci"], atol=tol)
 
 
 def test_stratified_bootstrap_never_mixes_environments():

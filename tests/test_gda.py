@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import multiprocessing
 import pickle
 import threading
 
@@ -24,12 +25,13 @@ from gdabench.designers.gda import designer as gda_designer
 from gdabench.designers.gda.backprop import FastUNet, module_layout
 from gdabench.designers.gda.encoding import EVOGYM_TO_MODEL, decode, encode, published_reencoding
 from gdabench.designers.gda.model import UNet, parameter_count
-from gdabench.designers.gda.runtime import torch_threads
 from gdabench.designers.gda.sampling import ancestral_sample, ddim_sample, denoise, noised
 from gdabench.designers.gda.schedule import make_schedule
 from gdabench.designers.gda import speculation
+from gdabench.designers.gda.quotas import share_counts
 from gdabench.designers.gda.surrogate import ridge_predictor
-from gdabench.designers.gda.training import Trainer, TrainJob, repeat_to
+from gdabench.designers.gda.training import Trainer, TrainerSpec, TrainJob, repeat_to
+from gdabench.torch_runtime import resolve_device, torch_threads
 
 from gda_reference import RefUNet
 
@@ -356,7 +358,7 @@ def test_published_reencoding_option_trains_on_permuted_survivors(captured_train
 
 
 def test_published_reencoding_is_off_by_default():
-    assert gda().published_reencoding is False
+    assert gda().config.published_reencoding is False
 
 
 def test_same_seed_gives_the_same_bodies():
@@ -386,7 +388,8 @@ def test_pickled_designer_resumes_exactly(params):
     assert len(blob) < 2_000_000
     resumed = pickle.loads(blob)  # without its model: compiles anew, at its own first sizes
     assert [[b.hash for b in g] for g in run(designer, 2)] == [[b.hash for b in g] for g in run(resumed, 2)]
-    assert resumed._trainer.compile == params.get("compile", False)  # compiled, not fallen back to eager
+    compiled = {row["compiled"] for row in resumed.proposal_info()}
+    assert compiled == {params.get("compile", False)}  # compiled, not fallen back to eager
 
 
 def test_variants_and_options_run():
@@ -394,7 +397,7 @@ def test_variants_and_options_run():
         history = run(designer, 2)
         assert all(len(gen) == 10 and all(b.is_valid() for b in gen) for gen in history)
     fast = make_designer("gda-fast", seed=0, shape=(5, 5), population=10, budget=1000)
-    assert isinstance(fast, GenerationalDiffusion) and fast.pool == 1000 and fast.max_samples == 2000 and fast.sampler == "ddim"
+    assert isinstance(fast, GenerationalDiffusion) and (fast.config.pool, fast.config.max_samples, fast.config.sampler) == (1000, 2000, "ddim")
     fast = make_designer("gda-fast", seed=0, shape=(5, 5), population=10, budget=1000, steps=50, pool=40)
     assert len(run(fast, 2)[-1]) == 10
 
@@ -407,29 +410,52 @@ def test_ridge_regression_learns_a_voxel_sum_reward():
     assert np.corrcoef(predict(test), test.sum(axis=(1, 2)))[0, 1] > 0.95
 
 
-def test_pool_proposes_the_bodies_the_regression_rates_best(monkeypatch):
+@pytest.fixture
+def rated_pools(monkeypatch):
+    """Record every pool of candidates the reward model rates, and its ratings."""
+    pools: list[tuple[list[str], np.ndarray]] = []
+
+    def spy(voxels, rewards):
+        predict = ridge_predictor(voxels, rewards)
+
+        def rate(candidates):
+            scores = predict(candidates)
+            pools.append(([Body(c).hash for c in candidates], scores))
+            return scores
+
+        return rate
+
+    monkeypatch.setattr(gda_designer, "ridge_predictor", spy)
+    return pools
+
+
+def test_pool_proposes_the_bodies_the_regression_rates_best(rated_pools):
     designer = gda(pool=40)
-    history = run(designer, 3)
+    history = run(designer, 4)
     everything = [b for gen in history for b in gen]
     assert all(len(gen) == 10 and all(b.is_valid() for b in gen) for gen in history)
     assert len({b.hash for b in everything}) == len(everything)
-    assert designer._seen == {b.hash for b in everything}  # the bodies left in the pool stay unseen
-    # the choice: the best-rated candidates of the pool, in order of rating
-    chosen = {}
-    original = GenerationalDiffusion._most_promising
+    assert len(rated_pools) == 3  # generations 1 to 3 (generation 0 is random)
+    for (candidates, scores), proposed in zip(rated_pools, history[1:]):
+        assert len(candidates) == 40
+        best = [candidates[i] for i in np.argsort(-scores, kind="stable")[:10]]
+        assert [b.hash for b in proposed] == best
 
-    def spy(self, candidates, k):
-        picked = original(self, candidates, k)
-        chosen.update(candidates=candidates, picked=picked)
-        return picked
 
-    monkeypatch.setattr(GenerationalDiffusion, "_most_promising", spy)
+def test_bodies_left_in_the_pool_can_be_proposed_later(monkeypatch, rated_pools):
+    designer = gda(seed=1, pool=40)
+    proposed = {b.hash for generation in run(designer, 2) for b in generation}
+    rng = np.random.default_rng(0)
+    stream = list({b.hash: b for b in (random_body(rng) for _ in range(200)) if b.hash not in proposed}.values())[:120]
+    # a "model" that draws the same bodies in the same order every pass
+    same_bodies = lambda model, schedule, n, *rest, **kw: torch.from_numpy(encode(np.stack([stream[i % len(stream)].voxels for i in range(n)])))[:, None]  # noqa: E731
+    monkeypatch.setattr(gda_designer, "ancestral_sample", same_bodies)
+    first = designer.ask()
+    designer.tell(first, [reward(b) for b in first])
     designer.ask()
-    voxels, rewards = zip(*designer.evaluated)
-    predict = ridge_predictor(np.stack(voxels), np.array(rewards))
-    scores = predict(np.stack([b.voxels for b in chosen["candidates"]]))
-    assert len(chosen["candidates"]) == 40
-    assert sorted(predict(np.stack([b.voxels for b in chosen["picked"]])))[0] >= sorted(scores)[-10]
+    (pool, _), (next_pool, _) = rated_pools[-2:]
+    left = set(pool) - {b.hash for b in first}
+    assert len(left) == 30 and left <= set(next_pool)  # the 30 not proposed are candidates again
 
 
 def test_prior_bodies_train_the_first_model(tmp_path, captured_training):
@@ -475,15 +501,14 @@ def test_bad_parameters_are_one_line_errors(params, message):
 def test_asking_for_a_missing_gpu_is_a_clear_error():
     with pytest.raises(ConfigError, match="no CUDA GPU"):
         gda(device="cuda")
-    assert gda(device="auto").trainer.device.type == "cpu"
+    assert resolve_device("auto", "gda").type == "cpu"
+    assert len(run(gda(device="auto"), 2)[-1]) == 10  # trains and samples on the CPU
 
 
 def test_designer_state_drops_the_model_when_pickled():
     designer = gda()
     run(designer, 2)
-    assert designer._trainer is not None
-    assert pickle.loads(pickle.dumps(designer))._trainer is None
-    assert gda_designer.MAX_PASS >= 50
+    assert len(pickle.dumps(designer)) < 100_000  # the model's weights alone take 363 kB
 
 
 def test_compiled_sampling_matches_the_network_for_any_pass_size():
@@ -510,12 +535,24 @@ def run_scheduled(designer, generations: int) -> tuple[list[list[str]], list[boo
     """Proposals, whether each generation's model was trained ahead, and whether this process
     holds the next generation's model after each ask."""
     bodies, ahead, holds_next = [], [], []
+    held: list[bool] = []  # after each Speculation.train: whether this process trained the next model
+    train = speculation.Speculation.train
+
+    def spy(self, *args):
+        trained = train(self, *args)
+        held.append(self.holds_next)
+        return trained
+
+    patch = pytest.MonkeyPatch()
+    patch.setattr(speculation.Speculation, "train", spy)
     for generation in range(generations):
         proposed = designer.ask()
         bodies.append([b.hash for b in proposed])
         ahead.append(bool(designer.proposal_info()[0].get("trained_ahead")))
-        holds_next.append(designer._speculation is not None and designer._speculation.holds_next)
+        holds_next.append(bool(held) and held[-1])
         designer.tell(proposed, [SCHEDULED_REWARDS.get(generation, reward(b)) for b in proposed])
+        held.clear()
+    patch.undo()
     return bodies, ahead, holds_next
 
 
@@ -524,8 +561,8 @@ def test_rows_say_whether_the_run_was_compiled():
     eager.tell(eager.ask(), [0.0] * 10)
     eager.ask()
     assert {row["compiled"] for row in eager.proposal_info()} == {False}
-    auto = make_designer("gda", seed=0, shape=(5, 5), population=25, budget=1000)  # the faithful run: compiled
-    assert auto._compiles() and auto.trainer.compile
+    faithful = make_designer("gda", seed=0, shape=(5, 5), population=25, budget=1000).config
+    assert faithful.compiles(25, 1000) and not faithful.compiles(25, 100)  # 'auto': only runs long enough to repay it
 
 
 def test_training_ahead_gives_exactly_the_same_run():
@@ -538,7 +575,7 @@ def test_training_ahead_gives_exactly_the_same_run():
 
 
 def test_a_failed_job_is_reported_not_waited_for():
-    config = speculation.WorkerConfig(("linear", 500, 1e-4, 0.02), (5, 5), 1e-3, True, 1)
+    config = TrainerSpec(("linear", 500, 1e-4, 0.02), (5, 5), 1e-3, True, 1)
     broken = TrainJob(b"", (1, 1, 5, 5), 0, ())  # no data: fails before compiling anything
     worker = speculation.TrainingWorker(config)
     try:
@@ -556,18 +593,23 @@ def test_a_failed_job_is_reported_not_waited_for():
 def test_a_dead_training_process_costs_the_overlap_not_the_run():
     plain, _, _ = run_scheduled(gda(seed=4, speculate=False), 5)
     designer = gda(seed=4, speculate=True)
-    bodies = []
+    bodies, ahead = [], []
     for generation in range(5):
         if generation == 3:  # while it trains generation 3's model, or just after
-            process = speculation._WORKERS[designer._worker_config()]._process
-            process.kill()
-            process.join()  # gone, not merely signalled: the run must notice it in this generation
+            for process in training_processes():
+                process.kill()
+                process.join()  # gone, not merely signalled: the run must notice it in this generation
         with pytest.warns(RuntimeWarning, match="training in this process") if generation == 3 else contextlib.nullcontext():
             proposed = designer.ask()
         bodies.append([b.hash for b in proposed])
+        ahead.append(designer.proposal_info()[0].get("trained_ahead", False))
         designer.tell(proposed, [SCHEDULED_REWARDS.get(generation, reward(b)) for b in proposed])
     assert bodies == plain
-    assert designer.speculate is False
+    assert ahead[2] and not any(ahead[3:]) and not training_processes()  # no new training process after the failure
+
+
+def training_processes() -> list[multiprocessing.process.BaseProcess]:
+    return [p for p in multiprocessing.active_children() if p.name == "gda-training"]
 
 
 # -- the thesis's proposed operators (sections 6.3-6.4) ---------------------------------------------
@@ -618,10 +660,10 @@ def test_crossover_proposals_stay_valid_unique_and_new():
 
 
 def test_category_shares_split_a_generation_by_largest_remainders():
-    assert gda_designer.share_counts((0.3, 0.3, 0.4), 10) == [3, 3, 4]
-    assert gda_designer.share_counts((0.3, 0.3, 0.4), 25) == [8, 7, 10]
-    assert gda_designer.share_counts((1 / 3, 1 / 3, 1 / 3), 4) == [2, 1, 1]
-    assert sum(gda_designer.share_counts((0.3, 0.3, 0.4), 7)) == 7
+    assert share_counts((0.3, 0.3, 0.4), 10) == [3, 3, 4]
+    assert share_counts((0.3, 0.3, 0.4), 25) == [8, 7, 10]
+    assert share_counts((1 / 3, 1 / 3, 1 / 3), 4) == [2, 1, 1]
+    assert sum(share_counts((0.3, 0.3, 0.4), 7)) == 7
 
 
 def test_category_filtered_sampling_can_ask_for_novel_shapes_only():
@@ -635,7 +677,7 @@ def test_category_filtered_sampling_can_ask_for_novel_shapes_only():
 
 def test_category_filtered_sampling_fills_each_share_in_sampling_order(monkeypatch):
     designer = gda(seed=3, categories="0.3/0.3/0.4", max_samples=200)
-    run(designer, 2)
+    proposed = {b.hash for generation in run(designer, 2) for b in generation}
     parents = np.stack([s.body.voxels for s in designer.survivors])
     rng = np.random.default_rng(0)
     by_category: dict[int, list[np.ndarray]] = {1: [], 2: [], 3: []}
@@ -644,14 +686,15 @@ def test_category_filtered_sampling_fills_each_share_in_sampling_order(monkeypat
         child = gda_designer.mutate(parent, rng, rate=float(rng.choice([0.04, 0.3])))
         if rng.random() < 0.3:  # same shape, new materials: redraw the types of occupied voxels
             child = Body(np.where(parent.voxels > 0, rng.integers(1, 5, parent.voxels.shape), 0))
-        if child is None or not child.is_valid() or child.hash in designer._seen:
+        if child is None or not child.is_valid() or child.hash in proposed:
             continue
         c = int(categorize(child.voxels[None], parents)[1][0])
         if c and all(not np.array_equal(child.voxels, v) for vs in by_category.values() for v in vs):
             by_category[c].append(np.array(child.voxels))
     # the model's stream: 20 novel shapes, then only 2 near-copies, then 10 new materials
     stream = by_category[3][:20] + by_category[1][:2] + by_category[2][:10]
-    monkeypatch.setattr(designer, "_draw", lambda n, generator: np.stack([stream.pop(0) if stream else np.zeros((5, 5), np.int8) for _ in range(n)]))
+    drawn = lambda n: np.stack([stream.pop(0) if stream else np.zeros((5, 5), np.int8) for _ in range(n)])  # noqa: E731
+    monkeypatch.setattr(gda_designer, "ancestral_sample", lambda model, schedule, n, *rest: torch.from_numpy(encode(drawn(n)))[:, None])
     bodies = [b.voxels for b in designer.ask()]
     # quotas 3/3/4 of 10: both near-copies, the first 3 new materials, the first 4 novel shapes, and the
     # missing near-copy filled by the first surplus body in sampling order (the 5th novel shape)

@@ -153,8 +153,8 @@ def test_dead_worker_is_replaced_and_others_keep_their_results(reg):
     tasks = [EvalTask(Body.from_text(t), 0, env) for t in texts]
     with make_executor(Execution(workers=2), warm=[env]) as executor:
         outcomes = executor.map(tasks)
-        workers = [slot.worker.process for slot in executor._pool.slots]
-        assert len(workers) == 2 and all(w.is_alive() for w in workers)  # the dead one was replaced
+        workers = [p for p in multiprocessing.active_children() if p.name == "gdabench-worker"]
+        assert len(workers) == 2  # the dead one was replaced
         again = executor.map(tasks[:2])
     assert [o.status for o in outcomes] == ["ok", "ok", "error", "ok", "ok", "ok"]
     assert outcomes[2].message == "worker process died (exit code 3)"

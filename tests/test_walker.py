@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import math
 import subprocess
 import sys
@@ -21,8 +22,8 @@ from gdabench import Body, ConfigError, Evaluation, make_controller, make_env
 from gdabench.controllers.open_loop import OpenLoop, Pattern
 from gdabench.envs.walker import ENV_ID, RETIRED_IDS, gym_env
 from gdabench.envs.walker.mesh import DIAGONAL, build_mesh
-from gdabench.envs.walker.render import save_gif
 from gdabench.envs.walker.sim import WalkerPhysics
+from gdabench.report.animation import frames_to_gif
 
 VOXEL = 0.1
 WALKER_BODY = "33333/40004/40004"  # a bridge of horizontal actuators on two vertical-actuator legs
@@ -400,7 +401,7 @@ def test_random_actions_on_random_bodies_stay_stable():
 
 
 # -- rendering -------------------------------------------------------------------------------------
-def test_rgb_array_frames_render_headless_and_save_as_gif(tmp_path):
+def test_rgb_array_frames_render_headless_and_save_as_gif():
     env = make(WALKER_BODY, render_mode="rgb_array")
     env.reset(seed=0)
     first = env.render()
@@ -410,8 +411,7 @@ def test_rgb_array_frames_render_headless_and_save_as_gif(tmp_path):
         frames.append(env.render())
     assert first.shape == (240, 480, 3) and first.dtype == np.uint8
     assert not np.array_equal(frames[0], frames[-1])  # the body moved on screen
-    path = save_gif(frames, tmp_path / "walk.gif")
-    with Image.open(path) as gif:
+    with Image.open(io.BytesIO(frames_to_gif(frames))) as gif:
         assert gif.n_frames == 4
     plain = make(WALKER_BODY)
     plain.reset(seed=0)

@@ -96,7 +96,14 @@ class OpenLoop(Controller):
         low, high = (float(v) for v in period_range)
         if not 0 < low <= high:
             raise ConfigError(f"open-loop: period_range must be two positive numbers, low <= high, got {period_range}")
-        self.pattern = Pattern(float(period), float(amplitude), float(center), float(phase_per_column), float(phase_per_row), float(vertical_phase))
+        self.pattern = Pattern(
+            float(period),
+            float(amplitude),
+            float(center),
+            float(phase_per_column),
+            float(phase_per_row),
+            float(vertical_phase),
+        )
         self.trials = int(trials)
         self.period_range = (low, high)
 
@@ -115,7 +122,9 @@ class OpenLoop(Controller):
         try:
             actuators = getattr(env.unwrapped, ACTUATOR_ATTRIBUTE, None)
             if actuators is None:
-                raise ConfigError(f"open-loop needs env.unwrapped.{ACTUATOR_ATTRIBUTE} (one row per actuator: row, col, code)")
+                raise ConfigError(
+                    f"open-loop needs env.unwrapped.{ACTUATOR_ATTRIBUTE} (one row per actuator: row, col, code)"
+                )
             actuators = np.asarray(actuators)
             limit = getattr(env.spec, "max_episode_steps", None) or DEFAULT_EPISODE_STEPS
             returns, steps = [], 0

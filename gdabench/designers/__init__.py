@@ -27,12 +27,14 @@ def gdabench_designers() -> list[DesignerSpec]:
         DesignerSpec(
             name="gda",
             factory="gdabench.designers.gda:GenerationalDiffusion",
-            description="Generational diffusion algorithm of the thesis: a fresh DDPM trained on the survivors each generation",
+            description="Generational diffusion algorithm of the thesis: a fresh DDPM trained on the survivors each "
+                        "generation",
         ),
         DesignerSpec(
             name="gda-fast",
             factory="gdabench.designers.gda:GenerationalDiffusion",
-            description="GDA with the best measured improvements (docs/designers/gda.md): a reward model picks from a pool of DDIM samples",
+            description="GDA with the best measured improvements (docs/designers/gda.md): a reward model picks from a "
+                        "pool of DDIM samples",
             defaults={"epochs": 10, "sampler": "ddim", "sample_steps": 50, "pool": 1000, "max_samples": 2000},
         ),
         DesignerSpec(
@@ -43,7 +45,8 @@ def gdabench_designers() -> list[DesignerSpec]:
         DesignerSpec(
             name="bo",
             factory="gdabench.designers.ecosystem.bayesopt:BayesianOptimization",
-            description="Bayesian optimisation on BoTorch: a GP on one-hot bodies Thompson-samples each generation from random and mutated bodies; extra: bo",
+            description="Bayesian optimisation on BoTorch: a GP on one-hot bodies Thompson-samples each generation "
+                        "from random and mutated bodies; extra: bo",
         ),
         DesignerSpec(
             name="ribs-map-elites",
@@ -53,7 +56,8 @@ def gdabench_designers() -> list[DesignerSpec]:
         DesignerSpec(
             name="ribs-cma-me",
             factory="gdabench.designers.ecosystem.pyribs_designer:RibsMapElites",
-            description="pyribs CMA-ME (improvement-ranked CMA-ES emitters) on filled share x actuator share; extra: ribs",
+            description="pyribs CMA-ME (improvement-ranked CMA-ES emitters) on filled share x actuator share; extra: "
+                        "ribs",
             defaults={"emitter": "cma"},
         ),
     ]

@@ -31,7 +31,8 @@ class GeneticAlgorithm(Designer):
     """Mutation-only GA with Evolution Gym's survivor schedule (or a fixed survivor count).
 
     Parameters:
-        survivors: bodies kept each generation; None follows Evolution Gym's 60% -> 0% schedule (the thesis used 5 on simple)
+        survivors: bodies kept each generation; None follows Evolution Gym's 60% -> 0% schedule (the thesis used 5
+            on simple)
         mutation_rate: probability that a child's voxel is redrawn
         attempts: mutations of one child tried until it is valid and new
         max_tries: children drawn per generation before the designer gives up
@@ -54,7 +55,10 @@ class GeneticAlgorithm(Designer):
                     f"(children need room), got {survivors}"
                 )
         elif self.population < 3:
-            raise ConfigError(f"ga: the survivor schedule keeps at least 2 bodies, so population must be at least 3, got {self.population}")
+            raise ConfigError(
+                f"ga: the survivor schedule keeps at least 2 bodies, so population must be at least 3, got "
+                f"{self.population}"
+            )
         if not 0.0 < mutation_rate <= 1.0:
             raise ConfigError(f"ga: mutation_rate must be in (0, 1], got {mutation_rate}")
         if attempts < 1:
@@ -80,7 +84,10 @@ class GeneticAlgorithm(Designer):
     def ask(self) -> list[Body]:
         remaining = self.budget - self.evaluations
         if not self.survivors:
-            bodies = [self._remember(random_body(self.rng, self.shape, exclude=self._seen)) for _ in range(min(self.population, remaining))]
+            bodies = [
+                self._remember(random_body(self.rng, self.shape, exclude=self._seen))
+                for _ in range(min(self.population, remaining))
+            ]
             self._parents = [""] * len(bodies)
             return bodies
         wanted = min(self.population - len(self.survivors), remaining)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Any, Sequence
 
 from ..body import Body, random_body
 from ..designer import Designer
@@ -11,7 +11,7 @@ from ..designer import Designer
 class RandomSearch(Designer):
     """Each generation is ``population`` new valid bodies from Evolution Gym's sampler."""
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs: Any):
         super().__init__(**kwargs)
         self._seen: set[str] = set()
 

@@ -17,7 +17,8 @@ def gdabench_environments() -> list[EnvironmentSpec]:
         EnvironmentSpec(
             name="walker",
             factory="gdabench.envs.walker.env:Walker",
-            description="Evolution Gym's Walker-v0 on its own physics, batched (gdabench/Walker-v2; engine=pymunk: gdabench/Walker-v1); needs a controller",
+            description="Evolution Gym's Walker-v0 on its own physics, batched (gdabench/Walker-v2; "
+                        "engine=pymunk: gdabench/Walker-v1); needs a controller",
             requires_controller=True,
         ),
         EnvironmentSpec(
@@ -33,7 +34,8 @@ def gdabench_environments() -> list[EnvironmentSpec]:
         EnvironmentSpec(
             name="nk",
             factory="gdabench.envs.nk:NKLandscape",
-            description="NK landscape: each voxel's score depends on itself and the K voxels before it; K sets ruggedness",
+            description="NK landscape: each voxel's score depends on itself and the K voxels before it; K sets "
+                        "ruggedness",
         ),
     ]
 
@@ -44,7 +46,8 @@ def gdabench_suites() -> list[SuiteSpec]:
         SuiteSpec(
             name="landscapes",
             envs=("simple", "two-peaks", "target", "nk[k=0]", "nk[k=4]"),
-            description="The analytic rewards: sum of voxels, a deceptive two-peak, a target body, NK smooth and rugged",
+            description="The analytic rewards: sum of voxels, a deceptive two-peak, a target body, NK smooth and "
+                        "rugged",
         ),
         SuiteSpec(
             name="walker",

@@ -37,7 +37,9 @@ class ControlledEnvironment(Environment):
             raise ConfigError(f"{type(self).__name__} needs a controller: add --controller NAME")
         return controller
 
-    def evaluate(self, body: Body, *, seed: int, controller: Controller | None = None, workdir: Path | None = None) -> Evaluation:
+    def evaluate(
+        self, body: Body, *, seed: int, controller: Controller | None = None, workdir: Path | None = None
+    ) -> Evaluation:
         return self.require(controller).evaluate(functools.partial(self.make_env, body), seed=seed, workdir=workdir)
 
     def render_frames(

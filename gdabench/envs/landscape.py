@@ -25,7 +25,9 @@ class Landscape(Environment):
     #: name used in error messages
     name: str = "landscape"
 
-    def evaluate(self, body: Body, *, seed: int, controller: Controller | None = None, workdir: Path | None = None) -> float:
+    def evaluate(
+        self, body: Body, *, seed: int, controller: Controller | None = None, workdir: Path | None = None
+    ) -> float:
         reason = self.invalid_reason(body)
         if reason is not None:
             raise InvalidBodyError(f"{self.name}: cannot score body {body.text}: {reason}")

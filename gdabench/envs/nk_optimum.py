@@ -17,7 +17,7 @@ so callers can decide whether the exact answer is affordable.
 from __future__ import annotations
 
 import functools
-from typing import Callable, Hashable
+from typing import Callable, Hashable, cast
 
 import numpy as np
 
@@ -132,7 +132,7 @@ def best_body(
                     back[q][2][idx] = v
         history.append((profiles, back))
         layer = new
-    ends = [(float(a.max()), p) for p, a in layer.items() if not valid or valid_end(p)]
+    ends = [(float(a.max()), p) for p, a in layer.items() if not valid or valid_end(cast(ValidProfile, p))]
     ends = [(s, p) for s, p in ends if np.isfinite(s)]
     if not ends:
         return None

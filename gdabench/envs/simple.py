@@ -17,7 +17,9 @@ class SumOfVoxels(Environment):
     ever higher rewards, which is what made it a hard target for the GA in the thesis.
     """
 
-    def evaluate(self, body: Body, *, seed: int, controller: Controller | None = None, workdir: Path | None = None) -> float:
+    def evaluate(
+        self, body: Body, *, seed: int, controller: Controller | None = None, workdir: Path | None = None
+    ) -> float:
         return float(np.asarray(body.voxels, dtype=np.int64).sum())
 
     @property

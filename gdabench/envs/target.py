@@ -10,11 +10,11 @@ shape, so it has to be found rather than stumbled upon::
     20002      soft legs ...
     40004      ... ending in vertical actuators
 
-For other shapes the default target is that body scaled by nearest neighbour (at 10x10, each of
-its voxels becomes a 2x2 block).  ``target`` takes another body, as text (``'11111/13241/...'``) or as the path of a file holding
-that text, for any shape.  ``class_credit`` (0 by default) gives that fraction of a voxel's
-credit when it has the target's material class (empty / passive: rigid or soft / actuator)
-without the exact material, which smooths the landscape.
+For other shapes the default target is that body scaled by nearest neighbour (at 10x10, each of its
+voxels becomes a 2x2 block).  ``target`` takes another body, as text (``'11111/13241/...'``) or as
+the path of a file holding that text, for any shape.  ``class_credit`` (0 by default) gives that
+fraction of a voxel's credit when it has the target's material class (empty / passive: rigid or soft
+/ actuator) without the exact material, which smooths the landscape.
 """
 
 from __future__ import annotations
@@ -73,13 +73,16 @@ class TargetBody(Landscape):
     """Reward = 100 * (exact matches + class_credit * class-only matches) / voxels.
 
     Parameters:
-        target: the body to reproduce, as text (rows joined by '/') or a file holding it; default a walker (the 5x5 one, scaled to the shape)
+        target: the body to reproduce, as text (rows joined by '/') or a file holding it; default a walker (the 5x5
+            one, scaled to the shape)
         class_credit: credit (0-1) for a voxel of the target's material class but not its exact material
     """
 
     name = "target"
 
-    def __init__(self, *, shape: tuple[int, int] = DEFAULT_TARGET.shape, target: str | None = None, class_credit: float = 0.0):
+    def __init__(
+        self, *, shape: tuple[int, int] = DEFAULT_TARGET.shape, target: str | None = None, class_credit: float = 0.0
+    ):
         super().__init__(shape=shape)
         body = default_target(self.shape) if target is None else parse_target(target)
         if body.shape != self.shape:
@@ -90,7 +93,9 @@ class TargetBody(Landscape):
         reason = body.invalid_reason()
         if reason is not None:
             raise ConfigError(f"target: {body.text} is not a valid body ({reason}), so no design could reach it")
-        ok = isinstance(class_credit, (int, float)) and not isinstance(class_credit, bool) and 0.0 <= class_credit <= 1.0
+        ok = (
+            isinstance(class_credit, (int, float)) and not isinstance(class_credit, bool) and 0.0 <= class_credit <= 1.0
+        )
         if not ok:
             raise ConfigError(f"target: class_credit must be a number between 0 and 1, got {class_credit!r}")
         self.target = body

@@ -30,7 +30,9 @@ class TwoPeaks(Landscape):
     def __init__(self, *, shape: tuple[int, int] = SHAPE):
         super().__init__(shape=shape)
         if self.shape != SHAPE:
-            raise ConfigError(f"two-peaks is defined for 5x5 bodies only (its peaks are 5x5 bodies), got --shape {self._shape_text()}")
+            raise ConfigError(
+                f"two-peaks is defined for 5x5 bodies only (its peaks are 5x5 bodies), got --shape {self._shape_text()}"
+            )
         self._p1 = np.asarray(P1.voxels, dtype=float).ravel()
         self._p2 = np.asarray(P2.voxels, dtype=float).ravel()
 

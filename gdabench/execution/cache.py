@@ -36,7 +36,11 @@ def recipe_identity(recipe: Factory | None, package: tuple[str, str] | None = No
     """A JSON-able description of an environment or controller recipe for cache keys."""
     if recipe is None:
         return None
-    factory = recipe.factory if isinstance(recipe.factory, str) else f"{recipe.factory.__module__}:{recipe.factory.__qualname__}"
+    factory = (
+        recipe.factory
+        if isinstance(recipe.factory, str)
+        else f"{recipe.factory.__module__}:{recipe.factory.__qualname__}"
+    )
     return {"factory": factory, "params": _plain(dict(recipe.params)), "package": list(package) if package else None}
 
 

@@ -3,7 +3,8 @@
 A run uses ``--jobs`` cores (by default every CPU), one per running trial.  When no trial is
 left waiting and fewer trials run than there are cores, the spare cores are free, and a
 designer that can use more than one core (``gda`` trains the next generation's model ahead on a
-second core) may borrow one with :func:`borrow` until its trial ends.  Borrowing never changes a
+second core) may borrow one with :func:`borrow`, which the trial's host lends it
+(:meth:`gdabench.designer.Designer.lend_cores`), until its trial ends.  Borrowing never changes a
 result, only how long it takes, so it may depend on what else is running.
 
 Outside a run (a designer driven by hand), a core is spare if the process may use more than one.

@@ -13,7 +13,7 @@ import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 from ..body import Body
 from ..environment import Environment, Evaluation
@@ -43,6 +43,10 @@ class EvalOutcome:
     info: Mapping[str, Any] = field(default_factory=dict)
     #: the reward was taken from the evaluation cache instead of being computed
     cached: bool = False
+
+
+#: what evaluates a generation's tasks (an executor's ``map``, possibly behind a cache): outcome ``i`` is task ``i``'s
+Evaluate = Callable[[Sequence[EvalTask]], list[EvalOutcome]]
 
 
 _built: dict[str, Any] = {}
@@ -85,5 +89,7 @@ def evaluate(task: EvalTask, prebuilt: Mapping[str, Any] | None = None) -> EvalO
         return EvalOutcome(math.nan, ERROR, one_line(exc), time.perf_counter() - start)
     seconds = time.perf_counter() - start
     if not math.isfinite(reward):
-        return EvalOutcome(math.nan, ERROR, f"environment returned a non-finite reward ({reward})", seconds, dict(ev.info))
+        return EvalOutcome(
+            math.nan, ERROR, f"environment returned a non-finite reward ({reward})", seconds, dict(ev.info)
+        )
     return EvalOutcome(reward, OK, "", seconds, dict(ev.info))

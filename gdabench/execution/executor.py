@@ -21,7 +21,7 @@ class Executor(abc.ABC):
     def map(self, tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
         """Evaluate ``tasks`` and return their outcomes in task order."""
 
-    def close(self) -> None:
+    def close(self) -> None:  # noqa: B027 - optional: only executors with workers override it
         """Release workers (idempotent)."""
 
     def __enter__(self) -> Executor:

@@ -67,7 +67,9 @@ class Execution:
         return asdict(self)
 
 
-def make_executor(execution: Execution, prebuilt: Mapping[str, Any] | None = None, warm: Sequence[Factory] = ()) -> Executor:
+def make_executor(
+    execution: Execution, prebuilt: Mapping[str, Any] | None = None, warm: Sequence[Factory] = ()
+) -> Executor:
     """The evaluation executor of a trial's process.
 
     ``prebuilt`` maps recipe keys to environments and controllers already built in this

@@ -107,7 +107,9 @@ class WorkerPool:
             raise
         return outcomes  # type: ignore[return-value]
 
-    def _dispatch(self, slot: Slot, queue: deque[int], tasks: Sequence[EvalTask], outcomes: list[EvalOutcome | None]) -> None:
+    def _dispatch(
+        self, slot: Slot, queue: deque[int], tasks: Sequence[EvalTask], outcomes: list[EvalOutcome | None]
+    ) -> None:
         index = queue.popleft()
         try:
             self.backend.send(slot.worker, tasks[index])
@@ -138,7 +140,9 @@ class WorkerPool:
                 slot.ready = True
             elif not slot.ready:
                 self._discard(slot)
-                raise WorkerStartError(f"a worker could not start: {payload if kind == DIED else 'it answered before it was ready'}")
+                raise WorkerStartError(
+                    f"a worker could not start: {payload if kind == DIED else 'it answered before it was ready'}"
+                )
             elif kind == RESULT:
                 outcomes[slot.task] = payload  # type: ignore[index]
                 slot.task = None
@@ -204,7 +208,11 @@ def _serve(conn: Connection, warm: Sequence[Factory], parent: int) -> None:
         try:
             conn.send(outcome)
         except Exception as exc:  # noqa: BLE001 - e.g. an info value that does not pickle
-            conn.send(EvalOutcome(math.nan, ERROR, f"result could not be sent to the driver: {one_line(exc)}", outcome.seconds))
+            conn.send(
+                EvalOutcome(
+                    math.nan, ERROR, f"result could not be sent to the driver: {one_line(exc)}", outcome.seconds
+                )
+            )
 
 
 def death_message(exitcode: int | None) -> str:
@@ -231,7 +239,9 @@ class ProcessBackend(Backend):
 
     def start(self) -> _Process:
         driver_end, worker_end = self._ctx.Pipe()
-        process = self._ctx.Process(target=_serve, args=(worker_end, self.warm, os.getpid()), daemon=True, name="gdabench-worker")
+        process = self._ctx.Process(
+            target=_serve, args=(worker_end, self.warm, os.getpid()), daemon=True, name="gdabench-worker"
+        )
         process.start()
         worker_end.close()
         return _Process(process, driver_end)

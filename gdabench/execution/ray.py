@@ -138,7 +138,9 @@ class RayConnection:
 class RayExecutor(Executor):
     """A pool of ``workers`` Ray actors evaluating one body each at a time."""
 
-    def __init__(self, workers: int, *, address: str | None = None, timeout: float | None = None, warm: Sequence[Factory] = ()):
+    def __init__(
+        self, workers: int, *, address: str | None = None, timeout: float | None = None, warm: Sequence[Factory] = ()
+    ):
         self._connection = RayConnection(address, workers)
         self.workers = workers
         self._pool = WorkerPool(RayBackend(self._connection.ray, warm), workers, timeout=timeout)

@@ -13,11 +13,9 @@ their rows should say so through an extra column of that outcome's ``info``.
 from __future__ import annotations
 
 import abc
-from typing import Callable, Sequence
+from typing import Sequence
 
-from .evaluation import EvalOutcome, EvalTask
-
-Evaluate = Callable[[Sequence[EvalTask]], list[EvalOutcome]]
+from .evaluation import EvalOutcome, EvalTask, Evaluate
 
 
 class EvaluationStrategy(abc.ABC):

@@ -26,10 +26,10 @@ import pandas as pd
 from ..errors import GdabenchError, one_line
 from ..plan import TrialSpec
 from ..results import Checkpoint, RunDirectory
-from ..trial import Evaluate, GenerationResult, Trial
+from ..trial import GenerationResult, Trial
 from . import cores
 from .cache import EvaluationCache
-from .evaluation import EvalOutcome, EvalTask, instance
+from .evaluation import EvalOutcome, EvalTask, Evaluate, instance
 from .executor import Executor
 from .options import Execution, make_executor
 from .pool import death_message, exit_when_orphaned
@@ -54,10 +54,11 @@ class TrialHost:
             self.trial = Trial(spec, self.run_id, env, workdir)
         else:
             self.trial = Trial(spec, self.run_id, env, workdir, checkpoint.designer, checkpoint.next_generation, done)
+        self.trial.designer.lend_cores(cores.borrow)
         if self._executor is None:
             warm = [r for r in (spec.env.factory, spec.controller) if r is not None]
             self._executor = make_executor(self.execution, self.prebuilt, warm)
-        evaluate = self._executor.map
+        evaluate: Evaluate = self._executor.map
         if self.execution.cache is not None and spec.cache_context is not None:
             evaluate = cached(evaluate, EvaluationCache(self.execution.cache, spec.cache_context))
         strategy = instance(spec.controller, self.prebuilt).evaluation_strategy() if spec.controller else None
@@ -133,7 +134,7 @@ class TrialWorkers(abc.ABC):
     def __enter__(self) -> TrialWorkers:
         return self
 
-    def __exit__(self, *exc: object) -> None:
+    def __exit__(self, *exc: object) -> None:  # noqa: B027 - nothing to release unless a subclass says so
         pass
 
 
@@ -214,7 +215,9 @@ class LocalProcesses(TrialWorkers):
         driver_end, worker_end = self._ctx.Pipe()
         host = TrialHost(*self.args)
         held = self._ctx.Value("i", 0, lock=False)  # changed only under the spare count's lock
-        process = self._ctx.Process(target=_serve, args=(worker_end, host, os.getpid(), self.spare, held), daemon=False, name="gdabench-trial")
+        process = self._ctx.Process(
+            target=_serve, args=(worker_end, host, os.getpid(), self.spare, held), daemon=False, name="gdabench-trial"
+        )
         process.start()
         worker_end.close()
         return _Process(process, driver_end)
@@ -237,7 +240,11 @@ class LocalProcesses(TrialWorkers):
                     answers.append(Answer(worker, ok, value))
                     continue
             worker.process.join(5)
-            answers.append(Answer(worker, False, death_message(worker.process.exitcode).replace("worker", "trial worker"), died=True))
+            answers.append(
+                Answer(
+                    worker, False, death_message(worker.process.exitcode).replace("worker", "trial worker"), died=True
+                )
+            )
         return answers
 
     def kill(self, worker: _Process) -> None:

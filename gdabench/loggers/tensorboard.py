@@ -17,7 +17,7 @@ from ..hookspecs import hookimpl
 try:
     from torch.utils.tensorboard import SummaryWriter
 except ImportError:  # torch's writer needs the tensorboard package
-    SummaryWriter = None
+    SummaryWriter = None  # type: ignore[misc,assignment]  # checked before use
 
 
 class TensorBoardLogger:

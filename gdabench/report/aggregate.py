@@ -29,6 +29,7 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 from scipy.stats import trim_mean
 
 from .pairwise import a12
@@ -47,7 +48,7 @@ def iqm(tasks: Tasks) -> float:
     return float(trim_mean(pooled, 0.25)) if len(pooled) else math.nan
 
 
-def profile(tasks: Tasks, taus: Sequence[float]) -> np.ndarray:
+def profile(tasks: Tasks, taus: ArrayLike) -> np.ndarray:
     """Share of runs scoring above each tau, averaged over environments."""
     taus = np.asarray(taus, dtype=float)
     return np.mean([(np.asarray(t, dtype=float)[:, None] > taus[None, :]).mean(axis=0) for t in tasks], axis=0)
@@ -71,7 +72,10 @@ def stratified_bootstrap(
     matrices of shape (resamples, runs) and returns one value (or a vector) per resample.
     """
     rng = np.random.default_rng(seed)
-    drawn = [[np.asarray(t, dtype=float)[rng.integers(0, len(t), size=(resamples, len(t)))] for t in tasks] for tasks in samples]
+    drawn = [
+        [np.asarray(t, dtype=float)[rng.integers(0, len(t), size=(resamples, len(t)))] for t in tasks]
+        for tasks in samples
+    ]
     values = np.asarray(statistic(*drawn), dtype=float)
     alpha = (1.0 - confidence) / 2.0
     low, high = np.quantile(values, [alpha, 1.0 - alpha], axis=0)
@@ -87,7 +91,10 @@ def _profile_rows(taus: np.ndarray) -> Callable[[list[np.ndarray]], np.ndarray]:
 
 
 def _improvement_rows(x: list[np.ndarray], y: list[np.ndarray]) -> np.ndarray:
-    per_task = [(a[:, :, None] > b[:, None, :]).mean(axis=(1, 2)) + 0.5 * (a[:, :, None] == b[:, None, :]).mean(axis=(1, 2)) for a, b in zip(x, y)]
+    per_task = [
+        (a[:, :, None] > b[:, None, :]).mean(axis=(1, 2)) + 0.5 * (a[:, :, None] == b[:, None, :]).mean(axis=(1, 2))
+        for a, b in zip(x, y)
+    ]
     return np.mean(per_task, axis=0)
 
 
@@ -130,7 +137,11 @@ def _tasks(scores: pd.DataFrame) -> tuple[dict[str, list[np.ndarray]], list[str]
 
 
 def aggregate_scores(
-    scores: pd.DataFrame, *, confidence: float = CONFIDENCE, resamples: int = RESAMPLES, taus: Sequence[float] | None = None
+    scores: pd.DataFrame,
+    *,
+    confidence: float = CONFIDENCE,
+    resamples: int = RESAMPLES,
+    taus: Sequence[float] | None = None,
 ) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
     """From :func:`normalised_scores`: (IQM per designer, performance profiles, probabilities of
     improvement for every ordered pair of designers), each with stratified-bootstrap intervals."""
@@ -139,13 +150,40 @@ def aggregate_scores(
     iqm_rows, profile_rows, poi_rows = [], [], []
     for designer, t in tasks.items():
         low, high = stratified_bootstrap(_iqm_rows, t, confidence=confidence, resamples=resamples)
-        iqm_rows.append({"designer": designer, "envs": len(envs), "runs": sum(map(len, t)), "iqm": iqm(t), "ci_low": float(low), "ci_high": float(high)})
+        iqm_rows.append(
+            {
+                "designer": designer,
+                "envs": len(envs),
+                "runs": sum(map(len, t)),
+                "iqm": iqm(t),
+                "ci_low": float(low),
+                "ci_high": float(high),
+            }
+        )
         p_low, p_high = stratified_bootstrap(_profile_rows(grid), t, confidence=confidence, resamples=resamples)
         for tau, share, lo, hi in zip(grid, profile(t, grid), p_low, p_high):
-            profile_rows.append({"designer": designer, "tau": float(tau), "fraction": float(share), "ci_low": float(lo), "ci_high": float(hi)})
+            profile_rows.append(
+                {
+                    "designer": designer,
+                    "tau": float(tau),
+                    "fraction": float(share),
+                    "ci_low": float(lo),
+                    "ci_high": float(hi),
+                }
+            )
     for x, y in permutations(tasks, 2):
-        low, high = stratified_bootstrap(_improvement_rows, tasks[x], tasks[y], confidence=confidence, resamples=resamples)
-        poi_rows.append({"designer_x": x, "designer_y": y, "probability": improvement_probability(tasks[x], tasks[y]), "ci_low": float(low), "ci_high": float(high)})
+        low, high = stratified_bootstrap(
+            _improvement_rows, tasks[x], tasks[y], confidence=confidence, resamples=resamples
+        )
+        poi_rows.append(
+            {
+                "designer_x": x,
+                "designer_y": y,
+                "probability": improvement_probability(tasks[x], tasks[y]),
+                "ci_low": float(low),
+                "ci_high": float(high),
+            }
+        )
     return (
         pd.DataFrame(iqm_rows, columns=["designer", "envs", "runs", "iqm", "ci_low", "ci_high"]),
         pd.DataFrame(profile_rows, columns=["designer", "tau", "fraction", "ci_low", "ci_high"]),

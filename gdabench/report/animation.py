@@ -26,7 +26,9 @@ MAX_FRAMES = 100
 MAX_WIDTH = 400
 
 
-def frames_to_gif(frames: Sequence[Any], *, fps: int = FPS, max_frames: int = MAX_FRAMES, max_width: int = MAX_WIDTH) -> bytes:
+def frames_to_gif(
+    frames: Sequence[Any], *, fps: int = FPS, max_frames: int = MAX_FRAMES, max_width: int = MAX_WIDTH
+) -> bytes:
     """Encode RGB frames as a looping GIF, evenly thinned to ``max_frames`` and scaled to ``max_width``."""
     if not len(frames):
         raise GdabenchError("the environment returned no frames")
@@ -38,11 +40,15 @@ def frames_to_gif(frames: Sequence[Any], *, fps: int = FPS, max_frames: int = MA
             raise GdabenchError(f"frame {i} has shape {array.shape}; expected (height, width, 3) RGB")
         image = Image.fromarray(np.ascontiguousarray(array[..., :3]).astype(np.uint8), "RGB")
         if image.width > max_width:
-            image = image.resize((max_width, max(1, round(image.height * max_width / image.width))), Image.Resampling.LANCZOS)
+            image = image.resize(
+                (max_width, max(1, round(image.height * max_width / image.width))), Image.Resampling.LANCZOS
+            )
         images.append(image.quantize(colors=128, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE))
     duration = round(1000 * len(frames) / len(keep) / fps)  # thinning keeps the real-time pace
     buffer = io.BytesIO()
-    images[0].save(buffer, format="GIF", save_all=True, append_images=images[1:], duration=duration, loop=0, optimize=True)
+    images[0].save(
+        buffer, format="GIF", save_all=True, append_images=images[1:], duration=duration, loop=0, optimize=True
+    )
     return buffer.getvalue()
 
 

@@ -44,7 +44,11 @@ def body_image(body: Body, scale: int = 16) -> np.ndarray:
 def voxel_legend() -> list[Patch]:
     """Legend handles naming the voxel colours."""
     return [
-        Patch(facecolor=np.array(COLOURS[c][:3]) / 255, edgecolor="0.35", label=VOXEL_NAMES[c])
+        Patch(
+            facecolor=(COLOURS[c][0] / 255, COLOURS[c][1] / 255, COLOURS[c][2] / 255),
+            edgecolor="0.35",
+            label=VOXEL_NAMES[c],
+        )
         for c in (RIGID, SOFT, H_ACT, V_ACT)
     ]
 

@@ -22,7 +22,7 @@ import math
 import os
 import re
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping, cast
 
 import numpy as np
 import pandas as pd
@@ -42,12 +42,14 @@ from .diversity import NEAR_COPY, SURVIVORS, diversity
 from .html import render_html
 from .markdown import render_markdown
 from .stat_pages import statistics_sections
-from .summary import failure_counts, per_run, summarize, thresholds
 from .stats import CONFIDENCE, RESAMPLES, best_so_far_curve, generation_rewards, median_band
+from .summary import failure_counts, per_run, summarize, thresholds
 from .tables import summary_cells
 
 #: columns the report needs; everything else in the table is optional
 BEST_BODIES = 8
+#: a designer's best-so-far curve: evaluations, median over seeds, and its band (low, high)
+Curve = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 GENERATION_COLUMNS = 10
 REPORT_DIR = "report"
 
@@ -98,7 +100,9 @@ def _slug(label: str, taken: set[str]) -> str:
     return slug
 
 
-def _facts(run: RunDirectory, meta: dict[str, Any], experiment: Experiment | None, threshold: str) -> list[tuple[str, str]]:
+def _facts(
+    run: RunDirectory, meta: dict[str, Any], experiment: Experiment | None, threshold: str
+) -> list[tuple[str, str]]:
     facts = [("run", f"{meta.get('run_id', '?')} ({run.path})"), ("status", str(meta.get("status")))]
     if meta.get("command"):
         facts.append(("command", " ".join(map(str, meta["command"]))))
@@ -110,8 +114,16 @@ def _facts(run: RunDirectory, meta: dict[str, Any], experiment: Experiment | Non
 
         facts += [
             ("designers", ", ".join(d.label or d.name for d in experiment.designers)),
-            ("environment", ", ".join(map(label, experiment.envs)) + (f" / controller {label(experiment.controller)}" if experiment.controller else "")),
-            ("budget", f"{experiment.budget} evaluations per run, population {experiment.population}, shape {experiment.shape[0]}x{experiment.shape[1]}"),
+            (
+                "environment",
+                ", ".join(map(label, experiment.envs))
+                + (f" / controller {label(experiment.controller)}" if experiment.controller else ""),
+            ),
+            (
+                "budget",
+                f"{experiment.budget} evaluations per run, population {experiment.population}, shape "
+                f"{experiment.shape[0]}x{experiment.shape[1]}",
+            ),
             ("seeds", ", ".join(map(str, experiment.seeds))),
         ]
     facts.append(("threshold", threshold))
@@ -180,7 +192,7 @@ def _threshold(threshold: float | None, meta: dict[str, Any], envs: list[str]) -
             raise ConfigError(f"--threshold must be a finite number, got {threshold}")
         return dict.fromkeys(envs, float(threshold)), f"{threshold:g} (chosen with --threshold)"
     known = thresholds(meta)
-    targets = {env: (known.get(env) if isinstance(known, dict) else known) for env in envs}
+    targets = {env: (known.get(env) if isinstance(known, Mapping) else known) for env in envs}
     if len(envs) > 1:
         words = ", ".join(f"{env} {'unknown' if t is None else f'{t:g}'}" for env, t in targets.items())
         return targets, f"each environment's optimum ({words}); pass --threshold to count evaluations to one reward"
@@ -195,31 +207,67 @@ def definitions(confidence: float, survivors: int, near_copy: int) -> list[tuple
     ci = f"{confidence:.0%}"
     return [
         ("Evaluation", "one evaluated unique valid body; invalid and duplicate proposals use none."),
-        ("Best reward", f"best reward a run found; the table gives the median over seeds and a {ci} percentile-bootstrap interval of that median (seeds resampled {RESAMPLES} times, fixed resampling seed)."),
-        ("Evaluations to the threshold", "evaluations a run used until its first body scored at least the threshold. Runs that never got there are censored (counted as +inf, 'not reached'), never dropped: a median that reads 'not reached' means half the seeds or more did not get there."),
-        ("Mean best-so-far", "area under the best-so-far curve divided by the number of evaluations (the mean best reward over the run): higher means good bodies were found sooner."),
-        ("Best-so-far band", f"{ci} bootstrap interval of the median over seeds at each evaluation count, resampling whole runs."),
-        ("Reward per generation", "min / mean / max reward of the bodies evaluated in that generation (duplicates and invalid bodies excluded); median over seeds with the inter-quartile range."),
+        (
+            "Best reward",
+            f"best reward a run found; the table gives the median over seeds and a {ci} percentile-bootstrap interval "
+            f"of that median (seeds resampled {RESAMPLES} times, fixed resampling seed).",
+        ),
+        (
+            "Evaluations to the threshold",
+            "evaluations a run used until its first body scored at least the threshold. Runs that never got there are "
+            "censored (counted as +inf, 'not reached'), never dropped: a median that reads 'not reached' means half "
+            "the seeds or more did not get there.",
+        ),
+        (
+            "Mean best-so-far",
+            "area under the best-so-far curve divided by the number of evaluations (the mean best reward over the "
+            "run): higher means good bodies were found sooner.",
+        ),
+        (
+            "Best-so-far band",
+            f"{ci} bootstrap interval of the median over seeds at each evaluation count, resampling whole runs.",
+        ),
+        (
+            "Reward per generation",
+            "min / mean / max reward of the bodies evaluated in that generation (duplicates and invalid bodies "
+            "excluded); median over seeds with the inter-quartile range.",
+        ),
         ("Wall time", "elapsed time of a run when its last generation was written (the machine may have been shared)."),
-        ("Survivors (diversity)", f"the {survivors} best bodies a run had evaluated before the generation (the GDA's and the thesis GA's rule, applied to every designer so that they are comparable)."),
-        ("Proposal categories", f"by Hamming distance to the nearest survivor: copy (0), near-copy (1-{near_copy} voxels differ), new materials (same occupied voxels as a survivor, other types), novel shape (the rest)."),
-        ("Representative run", "bodies per generation are shown for the seed whose best reward is the median of the designer's seeds."),
+        (
+            "Survivors (diversity)",
+            f"the {survivors} best bodies a run had evaluated before the generation (the GDA's and the thesis GA's "
+            f"rule, applied to every designer so that they are comparable).",
+        ),
+        (
+            "Proposal categories",
+            f"by Hamming distance to the nearest survivor: copy (0), near-copy (1-{near_copy} voxels differ), new "
+            f"materials (same occupied voxels as a survivor, other types), novel shape (the rest).",
+        ),
+        (
+            "Representative run",
+            "bodies per generation are shown for the seed whose best reward is the median of the designer's seeds.",
+        ),
     ]
 
 
 def _best_so_far(
     frame: pd.DataFrame, designers: list[str], budget: int, confidence: float
-) -> tuple[dict[str, tuple[np.ndarray, ...]], dict[str, int], pd.DataFrame]:
+) -> tuple[dict[str, Curve], dict[str, int], pd.DataFrame]:
     """Per designer: median best-so-far curve over seeds with its bootstrap band, and as a table."""
     x = np.arange(1, budget + 1)
-    curves, seeds, parts = {}, {}, []
+    curves: dict[str, Curve] = {}
+    seeds, parts = {}, []
     for d in designers:
         mine = frame[frame["designer"] == d]
         matrix = np.array([best_so_far_curve(g, budget) for _, g in mine.groupby("seed", sort=True)])
         median, low, high = median_band(matrix, confidence=confidence)
         curves[d], seeds[d] = (x, median, low, high), len(matrix)
         runs = (~np.isnan(matrix)).sum(axis=0)
-        parts.append(pd.DataFrame({"designer": d, "evaluations": x, "median": median, "ci_low": low, "ci_high": high, "runs": runs}))
+        parts.append(
+            pd.DataFrame(
+                {"designer": d, "evaluations": x, "median": median, "ci_low": low, "ci_high": high, "runs": runs}
+            )
+        )
     return curves, seeds, pd.concat(parts, ignore_index=True)
 
 
@@ -233,16 +281,25 @@ def _body_figures(
     cells, captions, best_of = [], [], {}
     for d in designers:
         top = _best_bodies(frame, d, BEST_BODIES)
-        row = [(_body(r["body"]), f"{r['reward']:.4g} (seed {r['seed']}, #{r['n_evals']})", int(r["seed"])) for _, r in top.iterrows()]
+        row = [
+            (_body(r["body"]), f"{r['reward']:.4g} (seed {r['seed']}, #{r['n_evals']})", int(r["seed"]))
+            for _, r in top.iterrows()
+        ]
         row = [c for c in row if c[0] is not None]
         if row:
-            best_of[d] = (row[0][0], row[0][2])
+            best_of[d] = (cast(Body, row[0][0]), row[0][2])  # None was filtered out above
         row += [(None, "", -1)] * (BEST_BODIES - len(row))
         cells += [c[0] for c in row]
         captions += [c[1] for c in row]
     figures = [
-        Figure("best_bodies.png", "Best bodies per designer", f"The {BEST_BODIES} best distinct bodies each designer found over all seeds: reward (seed, evaluation number).", plots.png(bodies_figure(cells, captions, ncols=BEST_BODIES, row_labels=designers)))
-    ]  # fmt: skip
+        Figure(
+            "best_bodies.png",
+            "Best bodies per designer",
+            f"The {BEST_BODIES} best distinct bodies each designer found over all seeds: reward (seed, evaluation "
+            f"number).",
+            plots.png(bodies_figure(cells, captions, ncols=BEST_BODIES, row_labels=designers)),
+        )
+    ]
     for d in designers:
         seed = _representative_seed(runs, d)
         bests = _generation_bests(frame, d, seed)
@@ -252,7 +309,15 @@ def _body_figures(
             ncols=GENERATION_COLUMNS,
             title=f"{d}, seed {seed}: best body of each generation",
         )
-        figures.append(Figure(f"bodies_per_generation_{slugs[d]}.png", f"Best body per generation: {d}", f"Representative run (seed {seed}, the median of the designer's best rewards), as in the thesis's figures 5.8-5.11.", plots.png(fig)))  # fmt: skip
+        figures.append(
+            Figure(
+                f"bodies_per_generation_{slugs[d]}.png",
+                f"Best body per generation: {d}",
+                f"Representative run (seed {seed}, the median of the designer's best rewards), as in the thesis's "
+                f"figures 5.8-5.11.",
+                plots.png(fig),
+            )
+        )
     return figures, best_of
 
 
@@ -292,7 +357,11 @@ def write_report(
     generations = generation_rewards(frame)
     tables: dict[str, tuple[pd.DataFrame, str]] = {
         "summary.csv": (summary, "the per-designer table with all its columns"),
-        "runs.csv": (runs, "one row per designer and seed: best reward, evaluations, evaluations to the threshold, mean best-so-far, wall time"),
+        "runs.csv": (
+            runs,
+            "one row per designer and seed: best reward, evaluations, evaluations to the threshold, mean best-so-far, "
+            "wall time",
+        ),
         "generations.csv": (generations, "reward per generation (min, mean, max) of every run"),
     }
 
@@ -303,36 +372,97 @@ def write_report(
         curves, seeds, curve_table = _best_so_far(part, mine, budget, confidence)
         curve_tables.append(curve_table.assign(env=env))
         suffix, where = ("", "") if len(envs) == 1 else (f"_{_slug(env, set())}", f" on {env}")
-        performance.append(Section(f"Performance{where}", [
-            Figure(f"best_so_far{suffix}.png", f"Best-so-far reward against evaluations{where}", f"All designers; line = median over seeds, band = {confidence:.0%} bootstrap CI of the median.", plots.png(plots.best_so_far_figure(curves, seeds=seeds, threshold=target[env], confidence=confidence))),
-            Figure(f"rewards_per_generation{suffix}.png", f"Reward per generation{where}", "Min / mean / max reward of the bodies evaluated in each generation (as in the thesis's figures 5.1-5.7); median over seeds, band = inter-quartile range.", plots.png(plots.generation_rewards_figure(generations[generations["env"] == env], mine))),
-        ]))  # fmt: skip
-    tables["best_so_far.csv"] = (pd.concat(curve_tables, ignore_index=True), "median best-so-far reward over seeds at every evaluation count, per environment and designer, with its bootstrap interval")
+        performance.append(
+            Section(
+                f"Performance{where}",
+                [
+                    Figure(
+                        f"best_so_far{suffix}.png",
+                        f"Best-so-far reward against evaluations{where}",
+                        f"All designers; line = median over seeds, band = {confidence:.0%} bootstrap CI of the median.",
+                        plots.png(
+                            plots.best_so_far_figure(curves, seeds=seeds, threshold=target[env], confidence=confidence)
+                        ),
+                    ),
+                    Figure(
+                        f"rewards_per_generation{suffix}.png",
+                        f"Reward per generation{where}",
+                        "Min / mean / max reward of the bodies evaluated in each generation (as in the thesis's "
+                        "figures 5.1-5.7); median over seeds, band = inter-quartile range.",
+                        plots.png(plots.generation_rewards_figure(generations[generations["env"] == env], mine)),
+                    ),
+                ],
+            )
+        )
+    tables["best_so_far.csv"] = (
+        pd.concat(curve_tables, ignore_index=True),
+        "median best-so-far reward over seeds at every evaluation count, per environment and designer, with its "
+        "bootstrap interval",
+    )
 
     body_sections: list[Section] = []
     best_of: dict[str, tuple[Body, int]] = {}
     if len(envs) > 1:
         performance.insert(0, _ranks_section(summary, designers, envs, tables))
-        notes.append("several environments: bodies, animations and diversity are left out; report a run of one environment to see them")
+        notes.append(
+            "several environments: bodies, animations and diversity are left out; report a run of one environment to "
+            "see them"
+        )
     else:
         div = diversity(frame, survivors, near_copy)
         tables["diversity.csv"] = (div, "diversity of the proposals of every generation of every run")
         body_figures, best_of = _body_figures(frame, runs, designers, slugs)
-        body_sections.append(Section("Bodies", body_figures, "Colours as in Evolution Gym: rigid black, soft grey, horizontal actuator orange, vertical actuator blue, empty white."))
+        body_sections.append(
+            Section(
+                "Bodies",
+                body_figures,
+                "Colours as in Evolution Gym: rigid black, soft grey, horizontal actuator orange, vertical actuator "
+                "blue, empty white.",
+            )
+        )
         if animations and experiment is not None:
             gifs = _animations(run, experiment, best_of, slugs, notes, reg)
             if gifs:
-                body_sections.append(Section("Animations", gifs, "The best body of each designer acting in the environment, replayed with the seed and artifacts of its evaluation."))
-        body_sections.append(Section("Diversity of proposals", [
-            Figure("diversity.png", "Diversity per generation", "Share of unique proposals, mean pairwise Hamming distance, and mean distance to the nearest survivor of the previous generation (thesis section 4.5).", plots.png(plots.diversity_figure(div, designers))),
-            Figure("novelty.png", "Near-copies versus novel shapes", "Share of each generation's proposals by distance to the nearest survivor.", plots.png(plots.novelty_figure(div, designers, near_copy))),
-        ]))  # fmt: skip
-    stat = statistics_sections(frame, optima={env: t for env, t in target.items() if t is not None} or None, confidence=confidence)
+                body_sections.append(
+                    Section(
+                        "Animations",
+                        gifs,
+                        "The best body of each designer acting in the environment, replayed with the seed and "
+                        "artifacts of its evaluation.",
+                    )
+                )
+        body_sections.append(
+            Section(
+                "Diversity of proposals",
+                [
+                    Figure(
+                        "diversity.png",
+                        "Diversity per generation",
+                        "Share of unique proposals, mean pairwise Hamming distance, and mean distance to the nearest "
+                        "survivor of the previous generation (thesis section 4.5).",
+                        plots.png(plots.diversity_figure(div, designers)),
+                    ),
+                    Figure(
+                        "novelty.png",
+                        "Near-copies versus novel shapes",
+                        "Share of each generation's proposals by distance to the nearest survivor.",
+                        plots.png(plots.novelty_figure(div, designers, near_copy)),
+                    ),
+                ],
+            )
+        )
+    stat = statistics_sections(
+        frame, optima={env: t for env, t in target.items() if t is not None} or None, confidence=confidence
+    )
     tables.update(stat.tables)
     significance, *statistics = stat.sections
     sections = [significance, *performance, *statistics, *body_sections]  # what is significant first, then the curves
 
-    env_name = ", ".join(e.label for e in experiment.envs) if experiment is not None else ", ".join(map(str, frame["env"].unique()))
+    env_name = (
+        ", ".join(e.label for e in experiment.envs)
+        if experiment is not None
+        else ", ".join(map(str, frame["env"].unique()))
+    )
     report = Report(
         run_path=run.path,
         out=out,
@@ -350,16 +480,35 @@ def write_report(
     return report
 
 
-def _ranks_section(summary: pd.DataFrame, designers: list[str], envs: list[str], tables: dict[str, tuple[pd.DataFrame, str]]) -> Section:
+def _ranks_section(
+    summary: pd.DataFrame, designers: list[str], envs: list[str], tables: dict[str, tuple[pd.DataFrame, str]]
+) -> Section:
     """Across environments: each designer's rank by median best reward on every environment, and the mean."""
-    best = summary.pivot_table(index="designer", columns="env", values="best_median", sort=False).reindex(index=designers, columns=envs)
+    best = summary.pivot_table(index="designer", columns="env", values="best_median", sort=False).reindex(
+        index=designers, columns=envs
+    )
     ranks = best.rank(axis=0, ascending=False, method="average")
     ranks["mean rank"] = ranks.mean(axis=1, skipna=False)
-    tables["ranks.csv"] = (ranks.reset_index(), "rank of each designer by median best reward on every environment (1 = best, ties share), and the mean rank")
-    rows = [[d, *(("-" if pd.isna(v) else f"{v:g}") for v in ranks.loc[d])] for d in ranks.sort_values("mean rank").index]
-    table = Table("Rank by median best reward", ["designer", *envs, "mean rank"], rows,
-                  "1 = the best median best reward on that environment; a designer missing from an environment has no mean rank.")
-    return Section("Across environments", [], "How the designers order on each environment of the suite; the aggregate statistics below pool normalised scores.", tables=[table])
+    tables["ranks.csv"] = (
+        ranks.reset_index(),
+        "rank of each designer by median best reward on every environment (1 = best, ties share), and the mean rank",
+    )
+    rows = [
+        [d, *(("-" if pd.isna(v) else f"{v:g}") for v in ranks.loc[d])] for d in ranks.sort_values("mean rank").index
+    ]
+    table = Table(
+        "Rank by median best reward",
+        ["designer", *envs, "mean rank"],
+        rows,
+        "1 = the best median best reward on that environment; a designer missing from an environment has no mean rank.",
+    )
+    return Section(
+        "Across environments",
+        [],
+        "How the designers order on each environment of the suite; the aggregate statistics below pool normalised "
+        "scores.",
+        tables=[table],
+    )
 
 
 def _animations(
@@ -377,7 +526,7 @@ def _animations(
     except GdabenchError as exc:
         notes.append(f"no animations: cannot rebuild the environment ({exc})")
         return []
-    gifs = []
+    gifs: list[Figure] = []
     for designer, (body, seed) in best_of.items():
         try:
             workdir = plan.workdir(run.path, plan.envs[0].label, designer, seed, body.hash)
@@ -387,7 +536,15 @@ def _animations(
             continue
         if gif is None:
             return gifs  # the environment has nothing to show, for any body
-        gifs.append(Figure(f"animation_{slugs[designer]}.gif", f"{designer}: best body acting", f"Seed {seed}, body {body.text}.", gif, "image/gif"))
+        gifs.append(
+            Figure(
+                f"animation_{slugs[designer]}.gif",
+                f"{designer}: best body acting",
+                f"Seed {seed}, body {body.text}.",
+                gif,
+                "image/gif",
+            )
+        )
     return gifs
 
 

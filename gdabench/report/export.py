@@ -118,11 +118,16 @@ def _write_ioh(frame: pd.DataFrame, root: Path) -> list[Path]:
                 "function_id": fid,
                 "function_name": fname,
                 "maximization": True,
-                "algorithm": {"name": designer, "info": str(rows["designer_params"].iloc[0]) if "designer_params" in rows else ""},
+                "algorithm": {
+                    "name": designer,
+                    "info": str(rows["designer_params"].iloc[0]) if "designer_params" in rows else "",
+                },
                 "experiment_attributes": _experiment_attributes(rows, env),
                 "run_attributes": ["seed"],
                 "attributes": HEADER.split(),
-                "scenarios": [{"dimension": dimension, "path": data_path, "runs": [_run_entry(t, best_bodies) for t in mine]}],
+                "scenarios": [
+                    {"dimension": dimension, "path": data_path, "runs": [_run_entry(t, best_bodies) for t in mine]}
+                ],
             }
             path = folder / f"IOHprofiler_f{fid}_{fname}.json"
             path.write_text(json.dumps(index, indent=1) + "\n")
@@ -177,7 +182,10 @@ def _best_bodies(frame: pd.DataFrame) -> dict[tuple[str, str, str, int], tuple[i
     ok = with_run_id(frame[frame["status"] == OK])
     ranked = ok.sort_values(["reward", "n_evals"], ascending=[False, True], kind="stable")
     first = ranked.drop_duplicates(["env", "designer", "run_id", "seed"])
-    return {(str(r.env), str(r.designer), str(r.run_id), int(r.seed)): (int(r.n_evals), str(r.body)) for r in first.itertuples()}
+    return {
+        (str(r.env), str(r.designer), str(r.run_id), int(r.seed)): (int(r.n_evals), str(r.body))
+        for r in first.itertuples()
+    }
 
 
 def _run_entry(trace: RunTrace, best_bodies: dict[tuple[str, str, str, int], tuple[int, str]]) -> dict:

@@ -34,7 +34,11 @@ def _table(headers: list[str], rows: list[list[str]], css: str = "") -> str:
     head = "".join(f"<th>{escape(h)}</th>" for h in headers)
     body = "".join("<tr>" + "".join(f"<td>{escape(c)}</td>" for c in row) + "</tr>" for row in rows)
     cls = f' class="{css}"' if css else ""
-    return f"<table{cls}><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>" if headers else f"<table{cls}><tbody>{body}</tbody></table>"
+    return (
+        f"<table{cls}><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+        if headers
+        else f"<table{cls}><tbody>{body}</tbody></table>"
+    )
 
 
 def _figure(fig: Figure) -> str:
@@ -46,7 +50,11 @@ def _figure(fig: Figure) -> str:
 
 def _captioned(table: Table) -> str:
     caption = f" {escape(table.caption)}" if table.caption else ""
-    return f"<h3>{escape(table.title)}</h3>" + _table(table.headers, table.rows) + (f"<p class=\"caption\">{caption.strip()}</p>" if caption else "")
+    return (
+        f"<h3>{escape(table.title)}</h3>"
+        + _table(table.headers, table.rows)
+        + (f'<p class="caption">{caption.strip()}</p>' if caption else "")
+    )
 
 
 def render_html(report: Report) -> str:

@@ -30,6 +30,7 @@ from typing import Sequence
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 from scipy.stats import mannwhitneyu, wilcoxon
 
 from ..errors import ConfigError
@@ -47,7 +48,7 @@ COLUMNS = [
 ]  # fmt: skip
 
 
-def a12(x: Sequence[float], y: Sequence[float]) -> float:
+def a12(x: ArrayLike, y: ArrayLike) -> float:
     """Vargha-Delaney A12: probability that a value of ``x`` beats one of ``y``, ties counting half."""
     a, b = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     if not len(a) or not len(b):
@@ -82,7 +83,7 @@ def holm(pvalues: Sequence[float]) -> np.ndarray:
     return out
 
 
-def test_pair(x: Sequence[float], y: Sequence[float], paired: bool) -> tuple[str, float, float]:
+def test_pair(x: ArrayLike, y: ArrayLike, paired: bool) -> tuple[str, float, float]:
     """(test name, statistic, two-sided p) for ``x`` against ``y``; NaN p below two runs a side."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     name = "Wilcoxon signed-rank" if paired else "Mann-Whitney U"
@@ -100,7 +101,9 @@ def _same_start(frame: pd.DataFrame, env: str, a: str, b: str, keys: list[tuple[
     if not keys or "generation" not in frame.columns:
         return "-"
     first = with_run_id(frame[(frame["env"] == env) & (frame["generation"] == 0) & frame["designer"].isin([a, b])])
-    bodies = {(d, r, int(s)): frozenset(g["body_hash"]) for (d, r, s), g in first.groupby(["designer", "run_id", "seed"])}
+    bodies = {
+        (d, r, int(s)): frozenset(g["body_hash"]) for (d, r, s), g in first.groupby(["designer", "run_id", "seed"])
+    }
     same = [bodies.get((a, r, s)) == bodies.get((b, r, s)) and bodies.get((a, r, s)) is not None for r, s in keys]
     return "yes" if all(same) else "no" if not any(same) else "partly"
 
@@ -117,7 +120,9 @@ def _verdict(row: dict, alpha: float, comparisons: int, target_power: float) -> 
     if row["test"].startswith("Wilcoxon"):
         needed = minimum_seeds(alpha / comparisons)
         if row["pairs"] < needed:
-            text += f"; {row['pairs']} seeds cannot give a significant result after correction (at least {needed} needed)"
+            text += (
+                f"; {row['pairs']} seeds cannot give a significant result after correction (at least {needed} needed)"
+            )
     if row["seeds_for_power"] is not None:
         text += f"; ~{row['seeds_for_power']} seeds would detect an effect this size {target_power:.0%} of the time"
     return text
@@ -177,7 +182,11 @@ def pairwise(
             row["p_holm"] = p_holm
             row["significant"] = bool(p_holm < alpha)
             needs_power = not math.isnan(row["p"]) and not row["significant"]
-            row["seeds_for_power"] = seeds_needed(row["a12"], alpha=alpha, target_power=target_power, comparisons=max(1, comparisons)) if needs_power else None
+            row["seeds_for_power"] = (
+                seeds_needed(row["a12"], alpha=alpha, target_power=target_power, comparisons=max(1, comparisons))
+                if needs_power
+                else None
+            )
             row["verdict"] = _verdict(row, alpha, max(1, comparisons), target_power)
         rows += family
     table = pd.DataFrame(rows, columns=COLUMNS)

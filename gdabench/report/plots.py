@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import io
 import math
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -29,7 +29,7 @@ def png(fig: Figure, dpi: int = 100) -> bytes:
     return buffer.getvalue()
 
 
-def _grid(n: int, max_cols: int = 3, size: tuple[float, float] = (4.2, 3.0)) -> tuple[Figure, np.ndarray]:
+def _grid(n: int, max_cols: int = 3, size: tuple[float, float] = (4.2, 3.0)) -> tuple[Figure, np.flatiter[Any]]:
     cols = max(1, min(max_cols, n))
     rows = max(1, math.ceil(n / cols))
     fig = Figure(figsize=(size[0] * cols, size[1] * rows + 0.4), layout="constrained")
@@ -62,7 +62,9 @@ def best_so_far_figure(
         ax.axhline(threshold, color="0.3", ls="--", lw=1, label=f"threshold {threshold:g}")
     ax.set_xlabel("evaluations")
     ax.set_ylabel("best reward so far")
-    ax.set_title(f"Best-so-far reward: median over seeds, band = {confidence:.0%} bootstrap CI of the median", fontsize=10)
+    ax.set_title(
+        f"Best-so-far reward: median over seeds, band = {confidence:.0%} bootstrap CI of the median", fontsize=10
+    )
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="lower right")
     return fig
@@ -83,7 +85,14 @@ def generation_rewards_figure(generations: pd.DataFrame, designers: Sequence[str
             median = by_gen.median()
             ax.plot(median.index, median.to_numpy(), color=STAT_COLOURS[stat], lw=1.5, marker=".", ms=3, label=stat)
             if seeds > 1:
-                ax.fill_between(median.index, by_gen.quantile(0.25).to_numpy(), by_gen.quantile(0.75).to_numpy(), color=STAT_COLOURS[stat], alpha=0.15, lw=0)
+                ax.fill_between(
+                    median.index,
+                    by_gen.quantile(0.25).to_numpy(),
+                    by_gen.quantile(0.75).to_numpy(),
+                    color=STAT_COLOURS[stat],
+                    alpha=0.15,
+                    lw=0,
+                )
         ax.set_title(f"{designer} ({seeds} seed{'s' if seeds != 1 else ''})", fontsize=10)
         _generation_axis(ax)
         ax.grid(alpha=0.3)
@@ -108,7 +117,14 @@ def diversity_figure(div: pd.DataFrame, designers: Sequence[str]) -> Figure:
             by_gen = div[div["designer"] == designer].groupby("generation")[column]
             median = by_gen.median()
             ax.plot(median.index, median.to_numpy(), color=f"C{i % 10}", lw=1.5, label=designer)
-            ax.fill_between(median.index, by_gen.quantile(0.25).to_numpy(), by_gen.quantile(0.75).to_numpy(), color=f"C{i % 10}", alpha=0.15, lw=0)
+            ax.fill_between(
+                median.index,
+                by_gen.quantile(0.25).to_numpy(),
+                by_gen.quantile(0.75).to_numpy(),
+                color=f"C{i % 10}",
+                alpha=0.15,
+                lw=0,
+            )
         ax.set_title(label, fontsize=9)
         _generation_axis(ax)
         ax.grid(alpha=0.3)
@@ -136,7 +152,8 @@ def novelty_figure(div: pd.DataFrame, designers: Sequence[str], near_copy: int) 
     if handles:
         fig.legend(handles, labels, loc="outside lower center", ncols=len(CATEGORIES), fontsize=8, frameon=False)
     fig.suptitle(
-        f"Proposals by distance to the nearest survivor (near-copy: at most {near_copy} voxels differ; mean over seeds)",
+        f"Proposals by distance to the nearest survivor (near-copy: at most {near_copy} voxels differ; mean over "
+        f"seeds)",
         fontsize=10,
     )
     return fig

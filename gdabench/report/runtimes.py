@@ -16,7 +16,8 @@ environment at a time.  A *run* is one (environment, designer, run id, seed).
 
 Default targets span the rewards the runs made progress over: from the median over runs of the
 best reward in their first generation up to the best reward any run found, plus the
-environment's optimum when it is known and no run found it; default budgets are 10%, 25%, 50% and 100% of the evaluation budget.
+environment's optimum when it is known and no run found it; default budgets are 10%, 25%, 50% and
+100% of the evaluation budget.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 
 from ..errors import ConfigError
 from ..execution.evaluation import COUNTED
@@ -100,7 +102,9 @@ def run_traces(frame: pd.DataFrame) -> list[RunTrace]:
     for (env, designer, run_id, seed), run in frame.groupby(["env", "designer", "run_id", "seed"], sort=False):
         used = int(run["status"].isin(COUNTED).sum())
         population = int(run["population"].iloc[0]) if "population" in run.columns else 1
-        traces.append(RunTrace(str(env), str(designer), str(run_id), int(seed), best_so_far_curve(run, used), population))
+        traces.append(
+            RunTrace(str(env), str(designer), str(run_id), int(seed), best_so_far_curve(run, used), population)
+        )
     return sorted(traces, key=lambda t: (envs[t.env], designers[t.designer], t.run_id, t.seed))
 
 
@@ -165,7 +169,9 @@ def default_targets(traces: Sequence[RunTrace], count: int, optimum: float | Non
     return sorted(chosen)
 
 
-def _targets_for(env: str, targets: Targets, traces: Sequence[RunTrace], count: int, optima: Mapping[str, float] | None) -> list[float]:
+def _targets_for(
+    env: str, targets: Targets, traces: Sequence[RunTrace], count: int, optima: Mapping[str, float] | None
+) -> list[float]:
     if targets is None:
         return default_targets(traces, count, (optima or {}).get(env))
     if isinstance(targets, Mapping):
@@ -186,7 +192,7 @@ def default_budgets(budget: int) -> list[int]:
 
 
 # -- fixed target ---------------------------------------------------------------------------------
-def expected_runtime(runtimes: Sequence[float], evaluations: Sequence[float]) -> float:
+def expected_runtime(runtimes: ArrayLike, evaluations: ArrayLike) -> float:
     """COCO's ERT: evaluations of all runs (the runtime of a successful run, all evaluations of an
     unsuccessful one, marked NaN in ``runtimes``) over the number of successes; inf without any."""
     rt = np.asarray(runtimes, dtype=float)
@@ -220,7 +226,9 @@ def expected_runtime_ci(
     return float(low), float(high)
 
 
-def runtimes(frame: pd.DataFrame, targets: Targets = None, *, optima: Mapping[str, float] | None = None) -> pd.DataFrame:
+def runtimes(
+    frame: pd.DataFrame, targets: Targets = None, *, optima: Mapping[str, float] | None = None
+) -> pd.DataFrame:
     """One row per run and target: the runtime (NaN when not reached) and the evaluations the run made."""
     rows = []
     for env, traces in by_env(run_traces(frame)).items():
@@ -255,8 +263,23 @@ def fixed_target(
                 "ert_ci_low": low, "ert_ci_high": high, "median_runtime": censored_median(g["runtime"]),
             }
         )  # fmt: skip
-    columns = ["env", "designer", "target", "runs", "successes", "success_rate", "ert", "ert_ci_low", "ert_ci_high", "median_runtime"]
-    return pd.DataFrame(rows, columns=columns).sort_values(["env", "target"], kind="stable", key=_appearance(rt)).reset_index(drop=True)
+    columns = [
+        "env",
+        "designer",
+        "target",
+        "runs",
+        "successes",
+        "success_rate",
+        "ert",
+        "ert_ci_low",
+        "ert_ci_high",
+        "median_runtime",
+    ]
+    return (
+        pd.DataFrame(rows, columns=columns)
+        .sort_values(["env", "target"], kind="stable", key=_appearance(rt))
+        .reset_index(drop=True)
+    )
 
 
 def _appearance(table: pd.DataFrame) -> Callable[[pd.Series], pd.Series]:
@@ -323,4 +346,6 @@ def fixed_budget(
                         "mean": float(values.mean()) if len(values) else math.nan,
                     }
                 )  # fmt: skip
-    return pd.DataFrame(rows, columns=["env", "designer", "budget", "runs", "median", "ci_low", "ci_high", "q25", "q75", "mean"])
+    return pd.DataFrame(
+        rows, columns=["env", "designer", "budget", "runs", "median", "ci_low", "ci_high", "q25", "q75", "mean"]
+    )

@@ -43,29 +43,50 @@ def statistics_sections(
     pages = StatisticsPages([], definitions=definitions(confidence, alpha))
 
     tests = pairwise(frame, alpha=alpha)
-    pages.tables["pairwise.csv"] = (tests, "every pair of designers per environment: test, p, Holm-corrected p, A12, verdict (best reward)")
+    pages.tables["pairwise.csv"] = (
+        tests,
+        "every pair of designers per environment: test, p, Holm-corrected p, A12, verdict (best reward)",
+    )
     pages.sections.append(_significance(frame, tests, envs, alpha))
 
     ert = fixed_target(frame, optima=optima, confidence=confidence)
     ecdf = runtime_ecdf(frame, optima=optima)
-    pages.tables["fixed_target.csv"] = (ert, "ERT, success rate and median runtime per environment, designer and target")
+    pages.tables["fixed_target.csv"] = (
+        ert,
+        "ERT, success rate and median runtime per environment, designer and target",
+    )
     pages.tables["runtime_ecdf.csv"] = (ecdf, "share of (run, target) pairs reached after each evaluation count")
     pages.sections.append(
         Section(
             "Fixed target: evaluations to reach a reward",
-            [Figure(f"ecdf_{_slug(env)}.png", f"Runtime ECDF: {env}", f"Share of (run, target) pairs reached after n evaluations, over {ECDF_TARGETS} targets evenly spaced as in the ERT table.", plots.png(stat_plots.ecdf_figure(ecdf, designers, env, ECDF_TARGETS))) for env in envs],
-            "Expected running time (ERT, COCO's definition): evaluations spent by all runs, an unsuccessful run counting all of its evaluations, divided by the successful runs. Cells: ERT [bootstrap CI] (runs that reached the target / runs).",
+            [
+                Figure(
+                    f"ecdf_{_slug(env)}.png",
+                    f"Runtime ECDF: {env}",
+                    f"Share of (run, target) pairs reached after n evaluations, over {ECDF_TARGETS} targets evenly "
+                    f"spaced as in the ERT table.",
+                    plots.png(stat_plots.ecdf_figure(ecdf, designers, env, ECDF_TARGETS)),
+                )
+                for env in envs
+            ],
+            "Expected running time (ERT, COCO's definition): evaluations spent by all runs, an unsuccessful run "
+            "counting all of its evaluations, divided by the successful runs. Cells: ERT [bootstrap CI] (runs that "
+            "reached the target / runs).",
             tables=[_ert_table(ert, env, designers, confidence) for env in envs],
         )
-    )  # fmt: skip
+    )
 
     budget = fixed_budget(frame, optima=optima, confidence=confidence)
-    pages.tables["fixed_budget.csv"] = (budget, "best-so-far reward of every designer at chosen budgets: median, bootstrap CI, quartiles, mean")
+    pages.tables["fixed_budget.csv"] = (
+        budget,
+        "best-so-far reward of every designer at chosen budgets: median, bootstrap CI, quartiles, mean",
+    )
     pages.sections.append(
         Section(
             "Fixed budget: reward after a number of evaluations",
             [],
-            f"Best-so-far reward after the given number of evaluations: median over seeds [{confidence:.0%} bootstrap CI].",
+            f"Best-so-far reward after the given number of evaluations: median over seeds [{confidence:.0%} bootstrap "
+            f"CI].",
             tables=[_budget_table(budget, env, designers) for env in envs],
         )
     )
@@ -97,8 +118,10 @@ def _significance(frame: pd.DataFrame, tests: pd.DataFrame, envs: list[str], alp
         tables.append(_pairwise_table(mine, env if len(envs) > 1 else "", alpha))
     tables.append(_power_table(alpha, comparisons))
     intro = (
-        f"Per environment, every pair of designers is tested on the best reward of each run: Wilcoxon's signed-rank test on the per-seed "
-        f"differences when the runs are paired (same run, same seed), the Mann-Whitney U test otherwise; p-values are corrected for the "
+        f"Per environment, every pair of designers is tested on the best reward of each run: Wilcoxon's signed-rank "
+        f"test on the per-seed "
+        f"differences when the runs are paired (same run, same seed), the Mann-Whitney U test otherwise; p-values are "
+        f"corrected for the "
         f"number of pairs with Holm's method; the effect size is Vargha-Delaney's A12. Significance level {alpha:g}."
     )
     return Section("Which differences are significant", [], intro, paragraphs=paragraphs, tables=tables)
@@ -108,11 +131,16 @@ def _one_seed_words(where: str, pairs: int, alpha: float) -> str:
     level = alpha / pairs
     large = seeds_needed(0.71, alpha=alpha, comparisons=pairs)
     return (
-        f"Nothing can be concluded from this run about which designer is better{where}: it has one seed per designer, and one run per "
-        f"designer cannot tell a designer's merit from the luck of its seed, so no test is possible and none of the differences above "
-        f"is significant. A paired test needs at least {minimum_seeds(level)} seeds before any p-value can fall below {alpha:g} after "
-        f"Holm's correction over the {pairs} pair(s); to detect a large effect (A12 = 0.71) 80% of the time it needs about {large} seeds "
-        f"(table below; power estimate of the exact signed-rank test, see 'How the numbers are computed'). Repeat the comparison with "
+        f"Nothing can be concluded from this run about which designer is better{where}: it has one seed per designer, "
+        f"and one run per "
+        f"designer cannot tell a designer's merit from the luck of its seed, so no test is possible and none of the "
+        f"differences above "
+        f"is significant. A paired test needs at least {minimum_seeds(level)} seeds before any p-value can fall below "
+        f"{alpha:g} after "
+        f"Holm's correction over the {pairs} pair(s); to detect a large effect (A12 = 0.71) 80% of the time it needs "
+        f"about {large} seeds "
+        f"(table below; power estimate of the exact signed-rank test, see 'How the numbers are computed'). Repeat the "
+        f"comparison with "
         f"e.g. --seeds 0..{max(large or 10, 10) - 1}."
     )
 
@@ -123,9 +151,16 @@ def _verdict_words(tests: pd.DataFrame, where: str, alpha: float, seeds: int) ->
 
     significant = [r for r in tests.itertuples() if r.significant]
     other = [r for r in tests.itertuples() if not r.significant]
-    parts = [f"With {seeds} seeds per designer{where}, at level {alpha:g} after Holm's correction over {len(tests)} pair(s):"]
+    parts = [
+        f"With {seeds} seeds per designer{where}, at level {alpha:g} after Holm's correction over {len(tests)} pair(s):"
+    ]
     if significant:
-        wins = [f"{(r.designer_a if r.a12 > 0.5 else r.designer_b)} beats {(r.designer_b if r.a12 > 0.5 else r.designer_a)} (Holm p = {r.p_holm:.2g}, A12 = {r.a12:.2f}, {r.magnitude})" for r in significant]
+        wins = [
+            f"{(r.designer_a if r.a12 > 0.5 else r.designer_b)} beats "
+            f"{(r.designer_b if r.a12 > 0.5 else r.designer_a)} (Holm p = {r.p_holm:.2g}, A12 = {r.a12:.2f}, "
+            f"{r.magnitude})"
+            for r in significant
+        ]
         parts.append("significant: " + "; ".join(wins) + ".")
     if other:
         parts.append("not significant: " + "; ".join(pair(r) for r in other) + ".")
@@ -135,11 +170,26 @@ def _verdict_words(tests: pd.DataFrame, where: str, alpha: float, seeds: int) ->
 def _pairwise_table(tests: pd.DataFrame, env: str, alpha: float) -> Table:
     headers = ["A", "B", "test", "median A - B", "p", "Holm p", "A12", "verdict"]
     rows = [
-        [r.designer_a, r.designer_b, r.test + (f" ({r.pairs} pair{'s' if r.pairs > 1 else ''})" if r.pairs else f" ({r.n_a} vs {r.n_b} runs)"), number(r.difference), number(r.p, 2), number(r.p_holm, 2), f"{r.a12:.2f}" + (f" ({r.magnitude})" if r.magnitude != "-" else ""), r.verdict]
+        [
+            r.designer_a,
+            r.designer_b,
+            r.test + (f" ({r.pairs} pair{'s' if r.pairs > 1 else ''})" if r.pairs else f" ({r.n_a} vs {r.n_b} runs)"),
+            number(r.difference),
+            number(r.p, 2),
+            number(r.p_holm, 2),
+            f"{r.a12:.2f}" + (f" ({r.magnitude})" if r.magnitude != "-" else ""),
+            r.verdict,
+        ]
         for r in tests.itertuples()
-    ]  # fmt: skip
+    ]
     title = f"Pairwise comparisons{f' on {env}' if env else ''}: best reward"
-    return Table(title, headers, rows, f"Two-sided tests; Holm's correction over the pairs of this environment; significant when Holm p < {alpha:g}. A12 > 0.5: A tends to score higher.")
+    return Table(
+        title,
+        headers,
+        rows,
+        f"Two-sided tests; Holm's correction over the pairs of this environment; significant when Holm p < {alpha:g}. "
+        f"A12 > 0.5: A tends to score higher.",
+    )
 
 
 def _power_table(alpha: float, comparisons: int) -> Table:
@@ -148,8 +198,10 @@ def _power_table(alpha: float, comparisons: int) -> Table:
         needed = seeds_needed(a12, alpha=alpha, comparisons=comparisons)
         rows.append([name, f"{a12:.2f}", str(needed) if needed is not None else "more than 1000"])
     caption = (
-        f"Seeds (pairs of runs) for the paired signed-rank test to find an effect of that size {POWER:.0%} of the time at {alpha:g} "
-        f"with Holm's correction over {comparisons} pair(s). Assumes normal per-seed differences and no help from pairing "
+        f"Seeds (pairs of runs) for the paired signed-rank test to find an effect of that size {POWER:.0%} of the "
+        f"time at {alpha:g} "
+        f"with Holm's correction over {comparisons} pair(s). Assumes normal per-seed differences and no help from "
+        f"pairing "
         f"(conservative when designers share their first generation)."
     )
     return Table("Seeds needed for a given effect", ["effect", "A12", "seeds needed"], rows, caption)
@@ -161,9 +213,18 @@ def _ert_table(ert: pd.DataFrame, env: str, designers: list[str], confidence: fl
     present = [d for d in designers if d in set(mine["designer"])]
     rows = []
     for target, g in mine.groupby("target", sort=True):
-        cells = {r.designer: f"{_ert_cell(r.ert, r.ert_ci_low, r.ert_ci_high)} ({r.successes}/{r.runs})" for r in g.itertuples()}
+        cells = {
+            r.designer: f"{_ert_cell(r.ert, r.ert_ci_low, r.ert_ci_high)} ({r.successes}/{r.runs})"
+            for r in g.itertuples()
+        }
         rows.append([number(target)] + [cells.get(d, "-") for d in present])
-    return Table(f"ERT on {env}", ["target reward"] + present, rows, f"'not reached': no run got there (ERT infinite). Interval: {confidence:.0%} bootstrap over runs; an upper bound 'inf' means some resamples held no run that got there.")
+    return Table(
+        f"ERT on {env}",
+        ["target reward"] + present,
+        rows,
+        f"'not reached': no run got there (ERT infinite). Interval: {confidence:.0%} bootstrap over runs; an upper "
+        f"bound 'inf' means some resamples held no run that got there.",
+    )
 
 
 def _ert_cell(ert: float, low: float, high: float) -> str:
@@ -179,7 +240,11 @@ def _budget_table(budget: pd.DataFrame, env: str, designers: list[str]) -> Table
     present = [d for d in designers if d in set(mine["designer"])]
     rows = []
     for b, g in mine.groupby("budget", sort=True):
-        cells = {r.designer: with_interval(r.median, r.ci_low, r.ci_high) + (f" ({r.runs} runs)" if r.runs < g["runs"].max() else "") for r in g.itertuples()}
+        cells = {
+            r.designer: with_interval(r.median, r.ci_low, r.ci_high)
+            + (f" ({r.runs} runs)" if r.runs < g["runs"].max() else "")
+            for r in g.itertuples()
+        }
         rows.append([str(b)] + [cells.get(d, "-") for d in present])
     return Table(f"Best-so-far reward at fixed budgets on {env}", ["evaluations"] + present, rows)
 
@@ -196,30 +261,57 @@ def _aggregate(
     scores = normalised_scores(frame, optima=optima)
     iqm, profiles, poi = aggregate_scores(scores, confidence=confidence)
     tables["normalised_scores.csv"] = (scores, "best reward of every run and its score normalised per environment")
-    tables["aggregate_iqm.csv"] = (iqm, "IQM of normalised scores over environments with its stratified-bootstrap interval")
+    tables["aggregate_iqm.csv"] = (
+        iqm,
+        "IQM of normalised scores over environments with its stratified-bootstrap interval",
+    )
     tables["performance_profiles.csv"] = (profiles, "share of runs above each normalised score, with its interval")
-    tables["improvement_probability.csv"] = (poi, "probability that a run of X beats a run of Y on the same environment, averaged over environments")
+    tables["improvement_probability.csv"] = (
+        poi,
+        "probability that a run of X beats a run of Y on the same environment, averaged over environments",
+    )
     left_out = [d for d in designers if d not in set(iqm["designer"])]
     paragraphs = [f"Left out (not run on every environment): {', '.join(left_out)}."] if left_out else []
     iqm_table = Table(
         "Interquartile mean of normalised best rewards",
         ["designer", "environments", "runs", f"IQM [{confidence:.0%} CI]"],
-        [[r.designer, str(r.envs), str(r.runs), with_interval(r.iqm, r.ci_low, r.ci_high, digits=3)] for r in iqm.itertuples()],
+        [
+            [r.designer, str(r.envs), str(r.runs), with_interval(r.iqm, r.ci_low, r.ci_high, digits=3)]
+            for r in iqm.itertuples()
+        ],
     )
     poi_table = Table(
         "Probability of improvement",
         ["X", "Y", f"P(X > Y) [{confidence:.0%} CI]"],
-        [[r.designer_x, r.designer_y, with_interval(r.probability, r.ci_low, r.ci_high, digits=3)] for r in poi.itertuples()],
-        "Probability that a run of X scores higher than a run of Y on the same environment (ties count half), averaged over environments.",
+        [
+            [r.designer_x, r.designer_y, with_interval(r.probability, r.ci_low, r.ci_high, digits=3)]
+            for r in poi.itertuples()
+        ],
+        "Probability that a run of X scores higher than a run of Y on the same environment (ties count half), "
+        "averaged over environments.",
     )
     shown = [d for d in designers if d in set(iqm["designer"])]
     figures = [
-        Figure("aggregate_iqm.png", "IQM over environments", "Interquartile mean of the normalised best rewards of all runs on all environments; bar = stratified-bootstrap CI.", plots.png(stat_plots.iqm_figure(iqm, shown, confidence))),
-        Figure("performance_profiles.png", "Performance profiles", f"Share of runs (averaged over environments) whose normalised best reward exceeds tau, at {PROFILE_POINTS} values of tau.", plots.png(stat_plots.profile_figure(profiles, shown, confidence))),
-    ]  # fmt: skip
+        Figure(
+            "aggregate_iqm.png",
+            "IQM over environments",
+            "Interquartile mean of the normalised best rewards of all runs on all environments; bar = "
+            "stratified-bootstrap CI.",
+            plots.png(stat_plots.iqm_figure(iqm, shown, confidence)),
+        ),
+        Figure(
+            "performance_profiles.png",
+            "Performance profiles",
+            f"Share of runs (averaged over environments) whose normalised best reward exceeds tau, at "
+            f"{PROFILE_POINTS} values of tau.",
+            plots.png(stat_plots.profile_figure(profiles, shown, confidence)),
+        ),
+    ]
     intro = (
-        f"Over the {len(envs)} environments ({', '.join(envs)}), with rliable's estimators. Each run's best reward is normalised per "
-        f"environment: 0 = the lowest of any run there, 1 = the highest (or the optimum when known and not reached). Intervals resample "
+        f"Over the {len(envs)} environments ({', '.join(envs)}), with rliable's estimators. Each run's best reward is "
+        f"normalised per "
+        f"environment: 0 = the lowest of any run there, 1 = the highest (or the optimum when known and not reached). "
+        f"Intervals resample "
         f"runs within each environment (stratified bootstrap)."
     )
     return Section("Aggregate over environments", figures, intro, paragraphs=paragraphs, tables=[iqm_table, poi_table])
@@ -228,13 +320,55 @@ def _aggregate(
 def definitions(confidence: float, alpha: float) -> list[tuple[str, str]]:
     """What the statistics sections' numbers mean (added to the report's definitions)."""
     return [
-        ("Paired and unpaired tests", "two designers' runs are paired when they come from the same run with the same seed (same seed: same evaluation noise; ga, gda and random even share their first generation). Paired: Wilcoxon signed-rank test on the per-seed differences; otherwise Mann-Whitney U. Two-sided."),
-        ("Holm p", f"p-values corrected with Holm's step-down method over all pairs of designers of an environment: the chance that any 'significant' in that table is false stays below {alpha:g}."),
-        ("A12", "Vargha-Delaney effect size: probability that a run of A beats a run of B (ties count half); 0.5 = no effect; |A12 - 0.5| below 0.06 negligible, 0.14 small, 0.21 medium, above large."),
-        ("Seeds needed (power)", f"smallest number of seeds with which the exact two-sided signed-rank test at {alpha:g} divided by the number of pairs (Holm's first step) rejects {POWER:.0%} of the time, when the per-seed differences are normal with standardised mean Phi^-1(A12) (the A12 of two independent normal runs); simulated with a fixed seed. Pairing that makes runs alike only lowers the number."),
-        ("ERT", "expected running time (COCO): the evaluations of all runs, a run that never reached the target counting all of its evaluations, divided by the number of runs that reached it; infinite ('not reached') when none did. Interval: bootstrap over runs."),
-        ("Targets", "default targets of the ERT table: evenly spaced between the median over runs of their first generation's best reward and the best reward any run found (rounded to 3 digits), plus the environment's optimum when known and not reached; the ECDF uses 50 such targets."),
-        ("Runtime ECDF", "share of (run, target) pairs whose target the run had reached after n evaluations (COCO's and IOHprofiler's fixed-target view aggregated over targets)."),
-        ("Fixed budget", f"each run's best-so-far reward after n evaluations; median over seeds with a {confidence:.0%} percentile-bootstrap interval (a run that stopped at the optimum keeps it)."),
-        ("Aggregate (several environments)", "rliable's interquartile mean (mean of the middle 50% of all normalised run scores), performance profiles (share of runs above a normalised score) and probability of improvement, with stratified-bootstrap intervals (runs resampled within each environment)."),
-    ]  # fmt: skip
+        (
+            "Paired and unpaired tests",
+            "two designers' runs are paired when they come from the same run with the same seed (same seed: same "
+            "evaluation noise; ga, gda and random even share their first generation). Paired: Wilcoxon signed-rank "
+            "test on the per-seed differences; otherwise Mann-Whitney U. Two-sided.",
+        ),
+        (
+            "Holm p",
+            f"p-values corrected with Holm's step-down method over all pairs of designers of an environment: the "
+            f"chance that any 'significant' in that table is false stays below {alpha:g}.",
+        ),
+        (
+            "A12",
+            "Vargha-Delaney effect size: probability that a run of A beats a run of B (ties count half); 0.5 = no "
+            "effect; |A12 - 0.5| below 0.06 negligible, 0.14 small, 0.21 medium, above large.",
+        ),
+        (
+            "Seeds needed (power)",
+            f"smallest number of seeds with which the exact two-sided signed-rank test at {alpha:g} divided by the "
+            f"number of pairs (Holm's first step) rejects {POWER:.0%} of the time, when the per-seed differences are "
+            f"normal with standardised mean Phi^-1(A12) (the A12 of two independent normal runs); simulated with a "
+            f"fixed seed. Pairing that makes runs alike only lowers the number.",
+        ),
+        (
+            "ERT",
+            "expected running time (COCO): the evaluations of all runs, a run that never reached the target counting "
+            "all of its evaluations, divided by the number of runs that reached it; infinite ('not reached') when "
+            "none did. Interval: bootstrap over runs.",
+        ),
+        (
+            "Targets",
+            "default targets of the ERT table: evenly spaced between the median over runs of their first generation's "
+            "best reward and the best reward any run found (rounded to 3 digits), plus the environment's optimum when "
+            "known and not reached; the ECDF uses 50 such targets.",
+        ),
+        (
+            "Runtime ECDF",
+            "share of (run, target) pairs whose target the run had reached after n evaluations (COCO's and "
+            "IOHprofiler's fixed-target view aggregated over targets).",
+        ),
+        (
+            "Fixed budget",
+            f"each run's best-so-far reward after n evaluations; median over seeds with a {confidence:.0%} "
+            f"percentile-bootstrap interval (a run that stopped at the optimum keeps it).",
+        ),
+        (
+            "Aggregate (several environments)",
+            "rliable's interquartile mean (mean of the middle 50% of all normalised run scores), performance profiles "
+            "(share of runs above a normalised score) and probability of improvement, with stratified-bootstrap "
+            "intervals (runs resampled within each environment).",
+        ),
+    ]

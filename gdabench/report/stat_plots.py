@@ -19,7 +19,9 @@ def ecdf_figure(ecdf: pd.DataFrame, designers: list[str], env: str, targets: int
     ax = fig.subplots()
     colours = _colours(designers)
     for designer, g in ecdf[ecdf["env"] == env].groupby("designer", sort=False):
-        ax.plot(g["evaluations"], g["fraction"], drawstyle="steps-post", color=colours[designer], lw=1.8, label=designer)
+        ax.plot(
+            g["evaluations"], g["fraction"], drawstyle="steps-post", color=colours[designer], lw=1.8, label=designer
+        )
     ax.set_xscale("log")
     ax.set_ylim(-0.02, 1.02)
     ax.set_xlabel("evaluations")

@@ -133,8 +133,19 @@ def failure_counts(evaluations: pd.DataFrame, examples: int = 2) -> pd.DataFrame
         failed = g[g["status"].isin(("error", "timeout"))]
         messages = list(dict.fromkeys(failed["message"].astype(str)))[:examples]
         counted = g[g["status"].isin(COUNTED)]
-        hopeless = int((counted.groupby("seed")["status"].apply(lambda s: bool((s != OK).all()))).sum()) if len(counted) else 0
+        hopeless = (
+            int((counted.groupby("seed")["status"].apply(lambda s: bool((s != OK).all()))).sum()) if len(counted) else 0
+        )
         parts = [f"{n} {status}" for status, n in counts.items() if n]
         line = ", ".join(parts) + (f"; first: {'; '.join(messages)}" if messages else "")
-        rows.append({"designer": designer, "env": env, **counts, "all_failed_trials": hopeless, "messages": messages, "line": line})
+        rows.append(
+            {
+                "designer": designer,
+                "env": env,
+                **counts,
+                "all_failed_trials": hopeless,
+                "messages": messages,
+                "line": line,
+            }
+        )
     return pd.DataFrame(rows, columns=["designer", "env", *PROBLEMS, "all_failed_trials", "messages", "line"])

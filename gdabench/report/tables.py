@@ -34,7 +34,9 @@ def has_threshold(summary: pd.DataFrame) -> bool:
     return bool(len(summary)) and bool(summary["threshold"].notna().any())
 
 
-def summary_cells(summary: pd.DataFrame, confidence: float = CONFIDENCE, compact: bool = False) -> tuple[list[str], list[list[str]]]:
+def summary_cells(
+    summary: pd.DataFrame, confidence: float = CONFIDENCE, compact: bool = False
+) -> tuple[list[str], list[list[str]]]:
     """Headers and rows of the per-designer table built from :func:`gdabench.report.summary.summarize`.
 
     ``compact`` is the terminal's view, which fits 80 columns: the best reward with its
@@ -55,12 +57,22 @@ def summary_cells(summary: pd.DataFrame, confidence: float = CONFIDENCE, compact
     rows = []
     for _, r in summary.iterrows():
         env = r["env"] + (f" / {r['controller']}" if r["controller"] else "")
-        cells = [str(r["designer"]), env, str(r["seeds"]), with_interval(r["best_median"], r["best_ci_low"], r["best_ci_high"])]
+        cells = [
+            str(r["designer"]),
+            env,
+            str(r["seeds"]),
+            with_interval(r["best_median"], r["best_ci_low"], r["best_ci_high"]),
+        ]
         if threshold:
             cells += [
                 *([number(r["threshold"])] if per_env else []),
                 f"{r['seeds_reached']}/{r['seeds']}",
-                with_interval(r["evals_to_threshold_median"], r["evals_to_threshold_ci_low"], r["evals_to_threshold_ci_high"], digits=6),
+                with_interval(
+                    r["evals_to_threshold_median"],
+                    r["evals_to_threshold_ci_low"],
+                    r["evals_to_threshold_ci_high"],
+                    digits=6,
+                ),
             ]
         cells += [
             with_interval(r["mean_best_so_far_median"], r["mean_best_so_far_ci_low"], r["mean_best_so_far_ci_high"]),
@@ -80,7 +92,10 @@ def _compact_cells(summary: pd.DataFrame, confidence: float) -> tuple[list[str],
     headers += ["seconds"]
     rows = []
     for _, r in summary.iterrows():
-        cells = [str(r["designer"]), *([r["env"] + (f" / {r['controller']}" if r["controller"] else "")] if several else [])]
+        cells = [
+            str(r["designer"]),
+            *([r["env"] + (f" / {r['controller']}" if r["controller"] else "")] if several else []),
+        ]
         cells.append(with_interval(r["best_median"], r["best_ci_low"], r["best_ci_high"]))
         if threshold:
             cells += [f"{r['seeds_reached']}/{r['seeds']}", number(r["evals_to_threshold_median"], 6)]

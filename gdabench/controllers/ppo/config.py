@@ -83,7 +83,9 @@ class PPOConfig:
                 f"use at least {self.rollout_steps}"
             )
         if self.batch_size > self.rollout_steps:
-            raise ConfigError(f"ppo: batch_size={self.batch_size} exceeds one rollout (n_steps x n_envs = {self.rollout_steps})")
+            raise ConfigError(
+                f"ppo: batch_size={self.batch_size} exceeds one rollout (n_steps x n_envs = {self.rollout_steps})"
+            )
         if self.episode_end not in EPISODE_ENDS:
             raise ConfigError(f"ppo: episode_end must be one of {', '.join(EPISODE_ENDS)}, got {self.episode_end!r}")
         if self.compile not in COMPILE_CHOICES or (self.compile != "auto" and not isinstance(self.compile, bool)):
@@ -117,7 +119,12 @@ class PPOConfig:
 
 def _positive_int(name: str, value: Any) -> int:
     """``value`` as an int (``1e5`` from the command line is accepted), or a one-line error."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value != int(value):
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not math.isfinite(value)
+        or value != int(value)
+    ):
         raise ConfigError(f"ppo: {name} must be a positive integer, got {value!r}")
     if value < 1:
         raise ConfigError(f"ppo: {name} must be a positive integer, got {value!r}")

@@ -11,15 +11,14 @@ animate a body, and how a resumed run skips bodies it already trained.
 
 from __future__ import annotations
 
-import inspect
 import shutil
 from pathlib import Path
 from typing import Any, Callable
 
-import torch
-
 from ...environment import Controller, Evaluation
 from ...errors import ConfigError
+from ...params import config_signature
+from ...torch_runtime import resolve_device
 from .config import COMPILE_MIN_TIMESTEPS, PPOConfig
 from .evaluation import evaluate_policy
 from .policy_file import SavedPolicy, has_policy, load_policy, save_policy
@@ -27,25 +26,6 @@ from .train import TrainResult, evaluation_generator, seeded_torch, train
 
 #: settings that change how fast a policy is trained, not what it becomes
 RUNTIME_SETTINGS = ("device", "threads", "compile")
-
-
-def resolve_device(name: str) -> torch.device:
-    """``cpu``, ``cuda``/``cuda:N`` when torch sees that GPU, ``auto`` (cuda if present), or a one-line error."""
-    if name == "auto":
-        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    try:
-        device = torch.device(name)
-    except (RuntimeError, TypeError):
-        raise ConfigError(f"ppo: unknown device {name!r}; use cpu, cuda, cuda:N or auto") from None
-    if device.type == "cpu":
-        return device
-    if device.type != "cuda":
-        raise ConfigError(f"ppo: device {name!r} is not supported; use cpu, cuda, cuda:N or auto")
-    if not torch.cuda.is_available():
-        raise ConfigError(f"ppo: device {name!r} requested but torch sees no CUDA GPU; use device=cpu")
-    if device.index is not None and device.index >= torch.cuda.device_count():
-        raise ConfigError(f"ppo: device {name!r} does not exist; torch sees {torch.cuda.device_count()} GPU(s)")
-    return device
 
 
 def has_cpp_compiler() -> bool:
@@ -84,14 +64,16 @@ class PPO(Controller):
             self.config = PPOConfig(**params)
         except TypeError as exc:  # an unknown keyword
             raise ConfigError(f"ppo: {exc}") from None
-        self.device = resolve_device(self.config.device)
+        self.device = resolve_device(self.config.device, "ppo")
         self.compiled = self._compiled()
 
     def _compiled(self) -> bool:
         choice = self.config.compile
         if choice is True:
             if self.device.type == "cpu" and not has_cpp_compiler():
-                raise ConfigError("ppo: compile=true needs a C++ compiler (g++ or clang++) on the PATH; use compile=false")
+                raise ConfigError(
+                    "ppo: compile=true needs a C++ compiler (g++ or clang++) on the PATH; use compile=false"
+                )
             return True
         if choice is False:
             return False
@@ -104,7 +86,7 @@ class PPO(Controller):
         return {"settings": settings, "seed": int(seed), "compiled": self.compiled}
 
     def evaluate(self, make_env: Callable[[], Any], *, seed: int, workdir: Path | None = None) -> Evaluation:
-        if has_policy(workdir):
+        if workdir is not None and has_policy(workdir):
             saved = load_policy(workdir, self.device)
             if saved.meta.get("trained_with") == self.fingerprint(seed):
                 return Evaluation(replay_policy(saved, make_env), {"replayed": 1})
@@ -140,10 +122,7 @@ class PPO(Controller):
 
 
 # the harness reads a factory's keyword parameters from its signature: expose PPOConfig's fields
-PPO.__init__.__signature__ = inspect.Signature(  # type: ignore[attr-defined]
-    [inspect.Parameter("self", inspect.Parameter.POSITIONAL_OR_KEYWORD)]
-    + [p.replace(kind=inspect.Parameter.KEYWORD_ONLY) for p in inspect.signature(PPOConfig, eval_str=True).parameters.values()]
-)
+PPO.__init__.__signature__ = config_signature(PPOConfig)  # type: ignore[attr-defined]
 
 
 def replay_policy(saved: SavedPolicy, make_env: Callable[[], Any]) -> float:
@@ -158,10 +137,17 @@ def replay_policy(saved: SavedPolicy, make_env: Callable[[], Any]) -> float:
     device = next(saved.nets.parameters()).device
     with seeded_torch(seed, config.threads):
         generator = evaluation_generator(config, seed, saved.meta["best_evaluation"], device)
-        scores = evaluate_policy(saved.nets, make_env, n_evals=config.n_evals, episode_end=config.episode_end, generator=generator, device=device)
+        scores = evaluate_policy(
+            saved.nets,
+            make_env,
+            n_evals=config.n_evals,
+            episode_end=config.episode_end,
+            generator=generator,
+            device=device,
+        )
     return float(sum(scores) / len(scores))
 
 
 def replay(workdir: Path, make_env: Callable[[], Any], device: str = "cpu") -> float:
     """Replay the policy saved in ``workdir`` (see :func:`replay_policy`); returns its score."""
-    return replay_policy(load_policy(workdir, resolve_device(device)), make_env)
+    return replay_policy(load_policy(workdir, resolve_device(device, "ppo")), make_env)

@@ -18,7 +18,7 @@ SerialEnv of two envs about 0.3 ms per batched step more than this class, measur
 
 from __future__ import annotations
 
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Sequence, cast
 
 import gymnasium
 import numpy as np
@@ -35,14 +35,20 @@ DONE_KEYS = ("done", "terminated", "truncated")
 def box_dims(env: gymnasium.Env) -> tuple[int, int]:
     """(observation size, action size) of an env with flat Box spaces, or a one-line error."""
     obs, act = env.observation_space, env.action_space
-    if not (isinstance(obs, gymnasium.spaces.Box) and isinstance(act, gymnasium.spaces.Box) and len(obs.shape) == 1 and len(act.shape) == 1):
+    if not (
+        isinstance(obs, gymnasium.spaces.Box)
+        and isinstance(act, gymnasium.spaces.Box)
+        and len(obs.shape) == 1
+        and len(act.shape) == 1
+    ):
         raise TypeError(f"ppo needs flat Box observation and action spaces, got {obs} and {act}")
     return int(obs.shape[0]), int(act.shape[0])
 
 
 def clip_action(env: gymnasium.Env, action: np.ndarray) -> np.ndarray:
     """The action clipped into the env's Box action space."""
-    return np.clip(action, env.action_space.low, env.action_space.high)
+    space = cast(gymnasium.spaces.Box, env.action_space)  # box_dims checked it
+    return np.clip(action, space.low, space.high)
 
 
 class BodyEnvs(EnvBase):
@@ -58,7 +64,8 @@ class BodyEnvs(EnvBase):
             self.close_gym_envs()
             raise
         n_obs, n_act = box_dims(self.gym_envs[0])
-        self._low, self._high = self.gym_envs[0].action_space.low, self.gym_envs[0].action_space.high
+        space = cast(gymnasium.spaces.Box, self.gym_envs[0].action_space)  # box_dims checked it
+        self._low, self._high = space.low, space.high
         self.observation_spec = Composite(observation=Unbounded((n, n_obs), dtype=torch.float32), shape=(n,))
         self.action_spec = Unbounded((n, n_act), dtype=torch.float32)
         self.reward_spec = Unbounded((n, 1), dtype=torch.float32)
@@ -78,12 +85,16 @@ class BodyEnvs(EnvBase):
         n = len(self.gym_envs)
         mask = None if tensordict is None else tensordict.get("_reset", None)
         flags = [True] * n if mask is None else mask.reshape(-1).tolist()
-        kept = mask is not None and "observation" in tensordict.keys()
+        kept = tensordict is not None and mask is not None and "observation" in tensordict.keys()
+        previous = cast(TensorDictBase, tensordict)  # read only when kept
         n_obs = self.observation_spec["observation"].shape[-1]
         out = TensorDict(
             {
-                "observation": tensordict.get("observation").clone() if kept else torch.zeros(n, n_obs),
-                **{key: tensordict.get(key).clone() if kept else torch.zeros(n, 1, dtype=torch.bool) for key in DONE_KEYS},
+                "observation": previous.get("observation").clone() if kept else torch.zeros(n, n_obs),
+                **{
+                    key: previous.get(key).clone() if kept else torch.zeros(n, 1, dtype=torch.bool)
+                    for key in DONE_KEYS
+                },
             },
             batch_size=(n,),
         )
@@ -105,14 +116,14 @@ class BodyEnvs(EnvBase):
             terminated.append(bool(term))
             truncated.append(bool(trunc))
         n = len(self.gym_envs)
-        term, trunc = torch.tensor(terminated).view(n, 1), torch.tensor(truncated).view(n, 1)
+        ended, cut = torch.tensor(terminated).view(n, 1), torch.tensor(truncated).view(n, 1)
         return TensorDict(
             {
                 "observation": _float32(observations),
                 "reward": torch.tensor(rewards, dtype=torch.float32).view(n, 1),
-                "done": term | trunc,
-                "terminated": term,
-                "truncated": trunc,
+                "done": ended | cut,
+                "terminated": ended,
+                "truncated": cut,
             },
             batch_size=(n,),
         )

@@ -60,7 +60,9 @@ def load_policy(workdir: Path, device: torch.device | str = "cpu") -> SavedPolic
     except Exception as exc:  # noqa: BLE001 - any unreadable file is reported in one line
         raise GdabenchError(f"cannot read the ppo policy in {workdir}: {type(exc).__name__}: {exc}") from None
     if meta.get("format") != FORMAT:
-        raise GdabenchError(f"ppo policy in {workdir} has format {meta.get('format')!r}; this gdabench reads format {FORMAT}")
+        raise GdabenchError(
+            f"ppo policy in {workdir} has format {meta.get('format')!r}; this gdabench reads format {FORMAT}"
+        )
     return SavedPolicy(nets, meta)
 
 

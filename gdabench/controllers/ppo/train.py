@@ -35,6 +35,7 @@ from torchrl.data import LazyTensorStorage, ReplayBuffer
 from torchrl.data.replay_buffers import SamplerWithoutReplacement
 from torchrl.objectives.value import GAE
 
+from ...torch_runtime import torch_threads
 from .config import PPOConfig
 from .envs import BodyEnvs, box_dims
 from .evaluation import evaluate_policy
@@ -106,17 +107,14 @@ class TrainResult:
 @contextlib.contextmanager
 def seeded_torch(seed: int, threads: int) -> Iterator[None]:
     """Seed torch's global RNG and pin threads and deterministic kernels, restoring all after."""
-    previous_threads = torch.get_num_threads()
     previous_deterministic = torch.are_deterministic_algorithms_enabled()
     previous_warn = torch.is_deterministic_algorithms_warn_only_enabled()
-    with torch.random.fork_rng(devices=[]):
+    with torch.random.fork_rng(devices=[]), torch_threads(threads):
         torch.manual_seed(seed)
-        torch.set_num_threads(threads)
         torch.use_deterministic_algorithms(True, warn_only=True)
         try:
             yield
         finally:
-            torch.set_num_threads(previous_threads)
             torch.use_deterministic_algorithms(previous_deterministic, warn_only=previous_warn)
 
 
@@ -146,7 +144,9 @@ def _dims(make_env: Callable[[], Any]) -> tuple[int, int]:
         env.close()
 
 
-def train(config: PPOConfig, make_env: Callable[[], Any], *, seed: int, device: torch.device, compiled: bool) -> TrainResult:
+def train(
+    config: PPOConfig, make_env: Callable[[], Any], *, seed: int, device: torch.device, compiled: bool
+) -> TrainResult:
     """Train PPO on the body behind ``make_env``; see the module docstring."""
     start = time.perf_counter()
     with seeded_torch(seed, config.threads):
@@ -180,14 +180,21 @@ def train(config: PPOConfig, make_env: Callable[[], Any], *, seed: int, device: 
         def evaluate(timesteps: int) -> None:
             nonlocal best_index, best_state
             generator = evaluation_generator(config, seed, len(evaluations), device)
-            scores = evaluate_policy(nets, make_env, n_evals=config.n_evals, episode_end=config.episode_end, generator=generator, device=device)
+            scores = evaluate_policy(
+                nets,
+                make_env,
+                n_evals=config.n_evals,
+                episode_end=config.episode_end,
+                generator=generator,
+                device=device,
+            )
             evaluations.append(Evaluated(timesteps, scores))
             if best_index < 0 or evaluations[-1].mean > evaluations[best_index].mean:
                 best_index, best_state = len(evaluations) - 1, copy.deepcopy(nets.state_dict())
 
         interval = config.evaluation_interval
         steps, diverged = 0, False
-        losses: list[float] = []
+        losses: list[list[float]] = []
         clock = PhaseClock()
         rollouts = iter(collector)
         try:
@@ -224,6 +231,7 @@ def train(config: PPOConfig, make_env: Callable[[], Any], *, seed: int, device: 
             collector.shutdown()
             if not envs.is_closed:
                 envs.close()
+        assert best_state is not None, "the first evaluation sets it, and the last rollout is always evaluated"
         nets.load_state_dict(best_state)
     return TrainResult(
         nets=nets,

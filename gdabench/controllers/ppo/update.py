@@ -92,9 +92,18 @@ class _CompiledStep:
         # the template's sizes do not matter: the parameters passed in replace its own
         self.objective = Objective(ActorCritic(2, 2, settings.hidden), settings)
         self.names = [name for name, _ in self.objective.named_parameters()]
-        self.compiled = torch.compile(self._step, fullgraph=True, options={"guard_filter_fn": _input_guards, "size_asserts": False})
+        self.compiled = torch.compile(
+            self._step, fullgraph=True, options={"guard_filter_fn": _input_guards, "size_asserts": False}
+        )
 
-    def _step(self, params: list[torch.Tensor], exp_avgs: list[torch.Tensor], exp_avg_sqs: list[torch.Tensor], steps: list[torch.Tensor], *batch: torch.Tensor) -> torch.Tensor:
+    def _step(
+        self,
+        params: list[torch.Tensor],
+        exp_avgs: list[torch.Tensor],
+        exp_avg_sqs: list[torch.Tensor],
+        steps: list[torch.Tensor],
+        *batch: torch.Tensor,
+    ) -> torch.Tensor:
         def objective(named: dict[str, torch.Tensor]) -> tuple[torch.Tensor, torch.Tensor]:
             return functional_call(self.objective, named, batch)
 
@@ -102,7 +111,21 @@ class _CompiledStep:
             named_grads, (loss, value_loss) = grad_and_value(objective, has_aux=True)(dict(zip(self.names, params)))
             grads = clipped(list(named_grads.values()), self.settings.max_grad_norm)
             beta1, beta2 = ADAM_BETAS
-            adam(params, grads, exp_avgs, exp_avg_sqs, [], steps, amsgrad=False, beta1=beta1, beta2=beta2, lr=self.settings.learning_rate, weight_decay=0.0, eps=ADAM_EPS, maximize=False)
+            adam(
+                params,
+                grads,
+                exp_avgs,
+                exp_avg_sqs,
+                [],
+                steps,
+                amsgrad=False,
+                beta1=beta1,
+                beta2=beta2,
+                lr=self.settings.learning_rate,
+                weight_decay=0.0,
+                eps=ADAM_EPS,
+                maximize=False,
+            )
         return torch.stack([loss, value_loss])
 
 
@@ -111,7 +134,16 @@ class _CompiledStep:
 #: cost a third of a step to check; nothing ever changes them (the template is private, and
 #: :func:`compiled_step` starts afresh when the settings change).
 KEPT_GUARDS = frozenset(
-    {"SHAPE_ENV", "GLOBAL_STATE", "GRAD_MODE", "DETERMINISTIC_ALGORITHMS", "DEFAULT_DEVICE", "TORCH_FUNCTION_STATE", "FUNCTORCH_STACK_MATCH", "AUTOGRAD_SAVED_TENSORS_HOOKS"}
+    {
+        "SHAPE_ENV",
+        "GLOBAL_STATE",
+        "GRAD_MODE",
+        "DETERMINISTIC_ALGORITHMS",
+        "DEFAULT_DEVICE",
+        "TORCH_FUNCTION_STATE",
+        "FUNCTORCH_STACK_MATCH",
+        "AUTOGRAD_SAVED_TENSORS_HOOKS",
+    }
 )
 
 
@@ -150,7 +182,9 @@ class MinibatchUpdate:
         self.objective = Objective(nets, settings)
         self.params = dict(self.objective.named_parameters())
         self.max_grad_norm = settings.max_grad_norm
-        self.optimizer = torch.optim.Adam(list(self.params.values()), lr=settings.learning_rate, betas=ADAM_BETAS, eps=ADAM_EPS)
+        self.optimizer = torch.optim.Adam(
+            list(self.params.values()), lr=settings.learning_rate, betas=ADAM_BETAS, eps=ADAM_EPS
+        )
         self.compiled = compiled
         if compiled:
             self._compiled = compiled_step(settings)
@@ -159,7 +193,9 @@ class MinibatchUpdate:
         #: seconds the first step took (it includes compiling, unless this process compiled before); None before it
         self.first_seconds: float | None = None
 
-    def _initial_adam_state(self) -> tuple[list[torch.Tensor], ...]:
+    def _initial_adam_state(
+        self,
+    ) -> tuple[list[torch.Tensor], list[torch.Tensor], list[torch.Tensor], list[torch.Tensor]]:
         """Adam's state as ``torch.optim.Adam`` would create it, created now so that the compiled
         step can take it as input (and the optimiser object holds it, as in the eager path)."""
         views, exp_avgs, exp_avg_sqs, steps = [], [], [], []

@@ -16,6 +16,7 @@ import os
 import tempfile
 from importlib import resources
 from pathlib import Path
+from typing import Any, Mapping
 
 import neat
 from neat.math_util import stat_functions
@@ -41,7 +42,9 @@ def read_config_text(path: str | os.PathLike[str] | None) -> str:
     try:
         return Path(path).read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cppn: cannot read config file {str(path)!r}: {exc.strerror if isinstance(exc, OSError) else exc}") from None
+        raise ConfigError(
+            f"cppn: cannot read config file {str(path)!r}: {exc.strerror if isinstance(exc, OSError) else exc}"
+        ) from None
 
 
 def load_config(text: str, population: int, source: str = "(built-in)") -> neat.Config:
@@ -80,7 +83,9 @@ def _neat_config(parser: configparser.ConfigParser, population: int) -> neat.Con
     with tempfile.TemporaryDirectory(prefix="gdabench-cppn-") as tmp:
         path = Path(tmp) / "neat.cfg"
         path.write_text(buffer.getvalue(), encoding="utf-8")
-        config = neat.Config(neat.DefaultGenome, neat.DefaultReproduction, neat.DefaultSpeciesSet, neat.DefaultStagnation, str(path))
+        config = neat.Config(
+            neat.DefaultGenome, neat.DefaultReproduction, neat.DefaultSpeciesSet, neat.DefaultStagnation, str(path)
+        )
     if config.stagnation_config.species_fitness_func not in stat_functions:
         raise RuntimeError(f"unknown species fitness function {config.stagnation_config.species_fitness_func!r}")
     return config
@@ -127,15 +132,24 @@ def _check_cppn(config: neat.Config, parser: configparser.ConfigParser, source: 
         raise bad("num_outputs", g.num_outputs, f"the CPPN needs {NUM_OUTPUTS} outputs, one per voxel code")
     if not g.feed_forward:
         raise bad("feed_forward", g.feed_forward, "a CPPN is a feed-forward network; set it to True")
-    for kind, known in (("activation", ACTIVATIONS), ("aggregation", AGGREGATIONS)):
+    functions: tuple[tuple[str, Mapping[str, Any]], ...] = (("activation", ACTIVATIONS), ("aggregation", AGGREGATIONS))
+    for kind, names in functions:
         default = getattr(g, f"{kind}_default")
-        if default.lower() not in ("random", "none") and default not in known:
-            raise bad(f"{kind}_default", default, f"not one of {', '.join(known)}")
+        if default.lower() not in ("random", "none") and default not in names:
+            raise bad(f"{kind}_default", default, f"not one of {', '.join(names)}")
         for name in getattr(g, f"{kind}_options"):
-            if name not in known:
-                raise bad(f"{kind}_options", " ".join(getattr(g, f"{kind}_options")), f"{name!r} is not one of {', '.join(known)}")
+            if name not in names:
+                raise bad(
+                    f"{kind}_options",
+                    " ".join(getattr(g, f"{kind}_options")),
+                    f"{name!r} is not one of {', '.join(names)}",
+                )
 
 
 def _first_line(exc: BaseException) -> str:
     lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
-    return " ".join(lines) if type(exc).__name__ == "UnknownConfigItemError" else (lines[0] if lines else type(exc).__name__)
+    return (
+        " ".join(lines)
+        if type(exc).__name__ == "UnknownConfigItemError"
+        else (lines[0] if lines else type(exc).__name__)
+    )

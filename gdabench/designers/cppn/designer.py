@@ -32,8 +32,8 @@ from neat.reporting import ReporterSet
 from ...body import Body, invalid_reason
 from ...designer import Designer
 from ...errors import ConfigError, DesignerError
-from .painting import cppn_voxels
 from .config import load_config, read_config_text
+from .painting import cppn_voxels
 
 #: neat-python objects rebuilt from the config text when a pickled designer is restored
 _NEAT_PARTS = ("_config", "_stagnation", "_reproduction", "_species")
@@ -43,7 +43,8 @@ class CppnNeat(Designer):
     """CPPN-NEAT with Evolution Gym's configuration (or a user's neat-python config file).
 
     Parameters:
-        config: a neat-python config file to use instead of Evolution Gym's (the population size comes from --population)
+        config: a neat-python config file to use instead of Evolution Gym's (the population size comes from
+            --population)
         max_replacements: fresh genomes tried per generation to replace invalid or repeated bodies
     """
 
@@ -63,7 +64,9 @@ class CppnNeat(Designer):
         self._proposal: list[tuple[int, Body]] | None = None  # (genome id, body) of the pending ask
         self._info: list[dict[str, Any]] = []
         with self._neat_random():
-            self._genomes = self._reproduction.create_new(self._config.genome_type, self._config.genome_config, self.population)
+            self._genomes = self._reproduction.create_new(
+                self._config.genome_type, self._config.genome_config, self.population
+            )
             self._species.speciate(self._config, self._genomes, self.generation)
 
     # -- ask/tell ----------------------------------------------------------------------------
@@ -90,7 +93,9 @@ class CppnNeat(Designer):
             children = self._reproduction.reproduce(config, self._species, config.pop_size, self.generation)
             if not self._species.species:  # every species stagnated
                 if not config.reset_on_extinction:
-                    raise DesignerError("cppn: every species went extinct and the config says reset_on_extinction = False")
+                    raise DesignerError(
+                        "cppn: every species went extinct and the config says reset_on_extinction = False"
+                    )
                 children = self._reproduction.create_new(config.genome_type, config.genome_config, config.pop_size)
             self._species.speciate(config, children, self.generation)
         self._genomes = children

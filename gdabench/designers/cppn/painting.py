@@ -36,7 +36,7 @@ ACTIVATIONS: dict[str, Callable[[Array], Array]] = {
 }
 
 #: aggregation functions over the weighted inputs of a node (summed in connection order)
-AGGREGATIONS: dict[str, Callable[[Sequence[Array]], Array]] = {
+AGGREGATIONS: dict[str, Callable[[Sequence[Array]], Array | float]] = {
     "sum": lambda xs: sum(xs),
     "product": lambda xs: functools.reduce(operator.mul, xs, 1),
 }
@@ -45,8 +45,8 @@ AGGREGATIONS: dict[str, Callable[[Sequence[Array]], Array]] = {
 @functools.lru_cache(maxsize=8)
 def cppn_inputs(shape: tuple[int, int]) -> tuple[Array, Array, Array]:
     """Per-voxel inputs ``x, y, d`` (row-major, float32) for a grid of ``shape``."""
-    x, y = np.meshgrid(np.arange(shape[0]), np.arange(shape[1]), indexing="ij")
-    x, y = x.ravel().astype(np.float32), y.ravel().astype(np.float32)
+    gx, gy = np.meshgrid(np.arange(shape[0]), np.arange(shape[1]), indexing="ij")
+    x, y = gx.ravel().astype(np.float32), gy.ravel().astype(np.float32)
     cx, cy = (shape[0] - 1) / 2, (shape[1] - 1) / 2
     d = np.sqrt((x - cx) ** 2 + (y - cy) ** 2).astype(np.float32)
     for a in (x, y, d):

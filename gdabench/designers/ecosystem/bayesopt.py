@@ -122,13 +122,14 @@ class BayesianOptimization(Designer):
     def _thompson(self, pool: list[Body], q: int) -> list[int]:
         """Indices of ``q`` distinct candidates, each the best of one joint posterior draw."""
         import torch
-
-        from ..gda.runtime import torch_threads  # one torch thread: a small GP runs tens of times faster than on two busy cores
         from botorch.fit import fit_gpytorch_mll
         from botorch.generation.sampling import MaxPosteriorSampling
         from botorch.models import SingleTaskGP
         from botorch.models.transforms import Standardize
         from gpytorch.mlls import ExactMarginalLogLikelihood
+
+        # one torch thread: a small GP runs tens of times faster than on two busy cores
+        from ...torch_runtime import torch_threads
 
         bodies, scores = self._training_set()
         torch_seed = int(self.rng.integers(2**63 - 1))
@@ -137,7 +138,10 @@ class BayesianOptimization(Designer):
             x = one_hot(bodies)
             y = torch.tensor(scores, dtype=torch.float64).unsqueeze(-1)
             model = SingleTaskGP(x, y, outcome_transform=Standardize(m=1))
-            fit_gpytorch_mll(ExactMarginalLogLikelihood(model.likelihood, model), optimizer_kwargs={"options": {"maxiter": self.fit_iters}})
+            fit_gpytorch_mll(
+                ExactMarginalLogLikelihood(model.likelihood, model),
+                optimizer_kwargs={"options": {"maxiter": self.fit_iters}},
+            )
             choices = one_hot(pool)
             with torch.no_grad():
                 picked = MaxPosteriorSampling(model, replacement=False)(choices, num_samples=q)

@@ -67,10 +67,14 @@ class NevergradDesigner(Designer):
             )
         self.optimizer_name = optimizer
         self.max_tries = int(max_tries)
-        parametrization = ng.p.Choice(list(range(N_VOXEL_TYPES)), repetitions=int(np.prod(self.shape)), deterministic=True)
+        parametrization = ng.p.Choice(
+            list(range(N_VOXEL_TYPES)), repetitions=int(np.prod(self.shape)), deterministic=True
+        )
         # every random choice nevergrad makes comes from the parametrization's random state
         parametrization.random_state = np.random.RandomState(self.seed_sequence.spawn(1)[0].generate_state(1)[0])
-        self.optimizer = ng.optimizers.registry[optimizer](parametrization=parametrization, budget=self.budget, num_workers=self.population)
+        self.optimizer = ng.optimizers.registry[optimizer](
+            parametrization=parametrization, budget=self.budget, num_workers=self.population
+        )
         self._tell_not_asked_error = ng.errors.TellNotAskedNotSupportedError
         self.scale = RewardScale()
         self.known: dict[str, float] = {}  # hash -> reward of every body evaluated in this run

@@ -61,7 +61,8 @@ class RibsMapElites(Designer):
     """MAP-Elites or CMA-ME from pyribs over filled share x actuator share.
 
     Parameters:
-        emitter: gaussian (MAP-Elites: Gaussian noise on uniformly drawn elites) or cma (CMA-ME: improvement-ranked CMA-ES)
+        emitter: gaussian (MAP-Elites: Gaussian noise on uniformly drawn elites) or cma (CMA-ME: improvement-ranked
+            CMA-ES)
         bins: archive cells per descriptor (bins x bins cells)
         sigma: standard deviation of the Gaussian noise (gaussian) or CMA-ES's initial step size (cma), on the logits
         emitters: number of emitters; the population is split between them
@@ -87,7 +88,9 @@ class RibsMapElites(Designer):
         if not sigma > 0:
             raise ConfigError(f"{name}: sigma must be positive, got {sigma}")
         if not 1 <= emitters <= self.population:
-            raise ConfigError(f"{name}: emitters must be between 1 and the population ({self.population}), got {emitters}")
+            raise ConfigError(
+                f"{name}: emitters must be between 1 and the population ({self.population}), got {emitters}"
+            )
         if max_tries < 1:
             raise ConfigError(f"{name}: max_tries must be at least 1, got {max_tries}")
         require("ribs", "ribs", name)
@@ -95,16 +98,31 @@ class RibsMapElites(Designer):
         from ribs.emitters import EvolutionStrategyEmitter, GaussianEmitter
         from ribs.schedulers import Scheduler
 
-        self.name, self.emitter, self.bins, self.sigma, self.max_tries = name, emitter, int(bins), float(sigma), int(max_tries)
+        self.name, self.emitter, self.bins, self.sigma, self.max_tries = (
+            name,
+            emitter,
+            int(bins),
+            float(sigma),
+            int(max_tries),
+        )
         dim = int(np.prod(self.shape)) * N_VOXEL_TYPES
         seeds = [int(s.generate_state(1)[0]) for s in self.seed_sequence.spawn(1 + emitters)]
-        archive = GridArchive(solution_dim=dim, dims=(self.bins, self.bins), ranges=((0.0, 1.0), (0.0, 1.0)), seed=seeds[0])
+        archive = GridArchive(
+            solution_dim=dim, dims=(self.bins, self.bins), ranges=((0.0, 1.0), (0.0, 1.0)), seed=seeds[0]
+        )
         sizes = [self.population // emitters + (i < self.population % emitters) for i in range(emitters)]
         x0 = np.zeros(dim)
+        made: list[Any]
         if emitter == "gaussian":
-            made = [GaussianEmitter(archive, sigma=self.sigma, x0=x0, batch_size=b, seed=s) for b, s in zip(sizes, seeds[1:])]
+            made = [
+                GaussianEmitter(archive, sigma=self.sigma, x0=x0, batch_size=b, seed=s)
+                for b, s in zip(sizes, seeds[1:])
+            ]
         else:
-            made = [EvolutionStrategyEmitter(archive, x0=x0, sigma0=self.sigma, ranker="2imp", batch_size=b, seed=s) for b, s in zip(sizes, seeds[1:])]
+            made = [
+                EvolutionStrategyEmitter(archive, x0=x0, sigma0=self.sigma, ranker="2imp", batch_size=b, seed=s)
+                for b, s in zip(sizes, seeds[1:])
+            ]
         self.scheduler = Scheduler(archive, made)
         self.scale = RewardScale()
         self.known: dict[str, float] = {}  # hash -> reward of every body evaluated in this run

@@ -16,6 +16,8 @@ and to the module, which sampling uses.
 
 from __future__ import annotations
 
+from typing import Literal, cast, overload
+
 import torch
 import torch.nn.functional as F
 from torch import nn
@@ -48,7 +50,7 @@ class FlatParameters:
             self.views[id(p)] = (self.flat[offset : offset + n].view(shape), self.grad[offset : offset + n].view(shape))
             offset += n
 
-    def of(self, p: nn.Parameter) -> tuple[torch.Tensor, torch.Tensor]:
+    def of(self, p: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """The (value, gradient) views holding module parameter ``p``."""
         return self.views[id(p)]
 
@@ -61,7 +63,7 @@ class FlatParameters:
     @torch.no_grad()
     def store(self) -> None:
         """Copy the parameters out into the module."""
-        for p, kind, shape in self.entries:
+        for p, kind, _ in self.entries:
             p.copy_(module_layout(self.of(p)[0], kind, p.shape))
 
 
@@ -111,6 +113,8 @@ class Conv:
 
     def __init__(self, params: FlatParameters, conv: nn.Conv2d, size: tuple[int, int], device: torch.device):
         self.w, self.gw = params.of(conv.weight)
+        self.b: torch.Tensor | None
+        self.gb: torch.Tensor | None
         self.b, self.gb = params.of(conv.bias) if conv.bias is not None else (None, None)
         self.c_in, self.c_out = conv.in_channels, conv.out_channels
         self.n_in = size[0] * size[1]
@@ -134,6 +138,10 @@ class Conv:
         y = torch.mm(cols, self.w) if self.b is None else torch.addmm(self.b, cols, self.w)
         return y.view(b, self.n_out, self.c_out), cols
 
+    @overload
+    def backward(self, g: torch.Tensor, cols: torch.Tensor, input_grad: Literal[True] = ...) -> torch.Tensor: ...
+    @overload
+    def backward(self, g: torch.Tensor, cols: torch.Tensor, input_grad: bool) -> torch.Tensor | None: ...
     def backward(self, g: torch.Tensor, cols: torch.Tensor, input_grad: bool = True) -> torch.Tensor | None:
         b = g.shape[0]
         g2 = g.reshape(-1, self.c_out)
@@ -183,6 +191,10 @@ class FastDoubleConv:
         s = x + h if self.residual else None
         return (h if s is None else F.gelu(s)), (cols1, norm1, a1, cols2, norm2, s)
 
+    @overload
+    def backward(self, g: torch.Tensor, saved: Saved, input_grad: Literal[True] = ...) -> torch.Tensor: ...
+    @overload
+    def backward(self, g: torch.Tensor, saved: Saved, input_grad: bool) -> torch.Tensor | None: ...
     def backward(self, g: torch.Tensor, saved: Saved, input_grad: bool = True) -> torch.Tensor | None:
         cols1, norm1, a1, cols2, norm2, s = saved
         if s is not None:
@@ -210,7 +222,8 @@ class TimeProjection:
 
 
 class Linear:
-    def __init__(self, params: FlatParameters, linear: nn.Linear):
+    def __init__(self, params: FlatParameters, linear: nn.Linear | nn.Conv2d):
+        assert linear.bias is not None, "the U-Net's linear maps all have a bias"
         self.w, self.gw = params.of(linear.weight)
         self.b, self.gb = params.of(linear.bias)
 
@@ -249,9 +262,9 @@ class FastAttention:
         self.norm = LayerNorm(params, block.norm)
         self.in_proj = Linear(params, block.in_proj)
         self.out_proj = Linear(params, block.out_proj)
-        self.ff_norm = LayerNorm(params, block.ff[0])
-        self.ff1 = Linear(params, block.ff[1])
-        self.ff2 = Linear(params, block.ff[3])
+        self.ff_norm = LayerNorm(params, cast(nn.LayerNorm, block.ff[0]))
+        self.ff1 = Linear(params, cast(nn.Linear, block.ff[1]))
+        self.ff2 = Linear(params, cast(nn.Linear, block.ff[3]))
 
     def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, Saved]:
         b, n, c = x.shape
@@ -301,7 +314,7 @@ class FastUNet:
         self.down_conv = FastDoubleConv(p, model.down.conv, low, device)
         self.down_time = TimeProjection(p, model.down.time)
         self.att_low = FastAttention(p, model.att_low)
-        self.bottleneck = [FastDoubleConv(p, block, low, device) for block in model.bottleneck]
+        self.bottleneck = [FastDoubleConv(p, cast(DoubleConv, block), low, device) for block in model.bottleneck]
         self.up_res = FastDoubleConv(p, model.up.conv_res, size, device)
         self.up_conv = FastDoubleConv(p, model.up.conv, size, device)
         self.up_time = TimeProjection(p, model.up.time)
@@ -310,7 +323,12 @@ class FastUNet:
         self.out.w, self.out.gw = (t.view(-1, 1) for t in p.of(model.out.weight))  # 1x1 convolution = linear map
         # bilinear upsampling (align_corners) is a fixed linear map from the low to the full grid
         basis = torch.eye(low[0] * low[1], device=device).view(-1, 1, *low)
-        self.upsample = F.interpolate(basis, size=size, mode="bilinear", align_corners=True).view(low[0] * low[1], -1).t().contiguous()
+        self.upsample = (
+            F.interpolate(basis, size=size, mode="bilinear", align_corners=True)
+            .view(low[0] * low[1], -1)
+            .t()
+            .contiguous()
+        )
         self.cells = size[0] * size[1]
 
     def prepare(self, batch: int) -> None:
@@ -353,7 +371,9 @@ class FastUNet:
         so under ``torch.compile`` a call has no Python side effects to replay.
         """
         b = x.shape[0]
-        prediction, (inc, down, down_res, down_conv, att_low, bottleneck, up_res, up_conv, att_high, h, c_skip) = self.forward(x, t_feat)
+        prediction, (inc, down, down_res, down_conv, att_low, bottleneck, up_res, up_conv, att_high, h, c_skip) = (
+            self.forward(x, t_feat)
+        )
         diff = prediction - noise
         loss = diff.pow(2).mean()
 

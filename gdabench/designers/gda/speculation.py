@@ -12,13 +12,13 @@ the new survivors instead.
 
 When the survivors do change, the worker trains the model needed now from scratch and the
 main process, which would only wait for it, trains the model after it on the same survivors
-(the designer's ``_train_speculating``): a guess that pays off whenever the next generation
-keeps its survivors, and leaves the worker free to go two generations ahead meanwhile.
+(:meth:`Speculation.train`): a guess that pays off whenever the next generation keeps its
+survivors, and leaves the worker free to go two generations ahead meanwhile.
 
 Every model comes from the same ``TrainJob.run`` with its generation's stream, so the results
 are the same with or without speculation (tested); only the wall time changes.  The designer
 decides *what* each generation trains on (a :class:`TrainJob`); :class:`Speculation` decides
-where and when it is trained, and :func:`wanted` whether to speculate at all.
+where and when it is trained, and :mod:`.backend` whether to speculate at all.
 """
 
 from __future__ import annotations
@@ -29,16 +29,13 @@ import queue
 import signal
 import threading
 import time
-from dataclasses import dataclass
 from typing import Any, Callable
 
 import numpy as np
-import torch
 
 from ...errors import GdabenchError
-from ...execution import cores
-from .schedule import make_schedule
-from .training import Trainer, TrainJob, TrainResult
+from ...torch_runtime import torch_threads
+from .training import FitResult, Trainer, TrainerSpec, TrainJob
 
 #: seconds between checks that the worker is still alive while waiting for it
 POLL_SECONDS = 1.0
@@ -52,36 +49,30 @@ class WorkerError(GdabenchError):
 Following = Callable[[int], "TrainJob | None"]
 
 
-def wanted(setting: bool | str, eligible: bool) -> bool:
-    """Whether to train ahead now: as ``setting`` says, or with 'auto' for an ``eligible`` run
-    once it has a spare core for this trial (kept until the trial ends; see :mod:`...execution.cores`)."""
-    if setting != "auto":
-        return bool(setting)
-    return eligible and cores.borrow()
-
-
 class Speculation:
     """One designer's models, trained ahead in the training process and in this one while it
     would only wait; each is the model :meth:`TrainJob.train` gives here."""
 
-    def __init__(self, config: WorkerConfig):
-        self.config = config
+    def __init__(self, spec: TrainerSpec):
+        self.spec = spec
         #: the next generation's model, trained ahead in this process: (job, weights, stream state, result)
-        self._ahead: tuple[TrainJob, np.ndarray, np.ndarray, TrainResult] | None = None
+        self._ahead: tuple[TrainJob, np.ndarray, np.ndarray, FitResult] | None = None
 
     @property
     def holds_next(self) -> bool:
         """Whether this process has trained a model ahead that no generation has used yet."""
         return self._ahead is not None
 
-    def train(self, job: TrainJob, trainer: Trainer, following: Following) -> tuple[np.ndarray, np.ndarray, TrainResult, bool]:
+    def train(
+        self, job: TrainJob, trainer: Trainer, following: Following
+    ) -> tuple[np.ndarray, np.ndarray, FitResult, bool]:
         """``job``'s weights (training layout), stream state and result, and whether it was
         trained ahead.  Trained now by the training process if not, while ``trainer`` trains the
         next generation's model on the same survivors (a guess that pays when they stay)."""
         mine, self._ahead = self._ahead, None
         if mine is not None and mine[0] == job:
             return (*mine[1:], True)
-        worker = training_worker(self.config)
+        worker = training_worker(self.spec)
         ahead = worker.has(job)
         following_job = following(1)
         if not ahead and following_job is not None:
@@ -100,26 +91,15 @@ class Speculation:
         if job is not None and self._ahead is not None and self._ahead[0] == job:
             job = following(2)
         if job is not None:
-            training_worker(self.config).start(job)
+            training_worker(self.spec).start(job)
 
     def close(self) -> None:
         """Stop the training process (after it failed: the designer trains here from now on)."""
         self._ahead = None
-        discard_worker(self.config)
+        discard_worker(self.spec)
 
 
-@dataclass(frozen=True)
-class WorkerConfig:
-    """Everything that makes two trainers compute the same numbers (workers are shared by it)."""
-
-    schedule: tuple[Any, ...]
-    shape: tuple[int, int]
-    lr: float
-    compile: bool
-    threads: int | None
-
-
-def _serve(conn: Any, abandoned: Any, warm: Any, config: WorkerConfig) -> None:
+def _serve(conn: Any, abandoned: Any, warm: Any, spec: TrainerSpec) -> None:
     """The worker's loop: train each job received and reply ``(job id, outcome)``.
 
     The outcome is (weights, stream state, result), None for a job abandoned while it ran,
@@ -127,10 +107,12 @@ def _serve(conn: Any, abandoned: Any, warm: Any, config: WorkerConfig) -> None:
     the main process is gone (killed runs leave no orphan and no traceback).
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    with torch_threads(spec.threads):
+        _train_jobs(conn, abandoned, warm, spec.make())
+
+
+def _train_jobs(conn: Any, abandoned: Any, warm: Any, trainer: Trainer) -> None:
     parent = os.getppid()
-    if config.threads is not None:
-        torch.set_num_threads(config.threads)
-    trainer = Trainer(make_schedule(*config.schedule), shape=config.shape, lr=config.lr, compile=config.compile)
     # a reply (~360 kB of weights) fills the pipe until the main process reads it, which may be
     # only after it has trained a model itself: sending from a thread keeps the worker training
     replies: queue.SimpleQueue[Any] = queue.SimpleQueue()
@@ -139,7 +121,7 @@ def _serve(conn: Any, abandoned: Any, warm: Any, config: WorkerConfig) -> None:
         while (message := conn.recv()) is not None:
             job_id, job = message
 
-            def stop() -> bool:  # asked before each epoch
+            def stop(job_id: int = job_id) -> bool:  # asked before each epoch
                 warm.value = trainer.warm  # the compiled step is in inductor's on-disk cache now
                 return abandoned.value == job_id or os.getppid() != parent
 
@@ -164,12 +146,14 @@ def _send_replies(conn: Any, replies: queue.SimpleQueue[Any]) -> None:
 class TrainingWorker:
     """A process that trains one job at a time; :meth:`start` one ahead, :meth:`train` to get one."""
 
-    def __init__(self, config: WorkerConfig):
+    def __init__(self, spec: TrainerSpec):
         ctx = mp.get_context("spawn")  # never fork a process that has started torch's threads
         self._conn, child = ctx.Pipe()
         self._abandoned = ctx.Value("q", -1, lock=False)
         self._warm = ctx.Value("b", False, lock=False)
-        self._process = ctx.Process(target=_serve, args=(child, self._abandoned, self._warm, config), daemon=True, name="gda-training")
+        self._process = ctx.Process(
+            target=_serve, args=(child, self._abandoned, self._warm, spec), daemon=True, name="gda-training"
+        )
         try:
             self._process.start()
         except Exception as exc:  # noqa: BLE001 - e.g. inside a daemonic process, which may not have children
@@ -193,7 +177,7 @@ class TrainingWorker:
         """Whether ``job`` is under way (or done and not yet collected)."""
         return self._pending is not None and self._pending[1] == job
 
-    def train(self, job: TrainJob) -> tuple[np.ndarray, np.ndarray, TrainResult]:
+    def train(self, job: TrainJob) -> tuple[np.ndarray, np.ndarray, FitResult]:
         """``job``'s trained weights (training layout), stream state and result."""
         self.start(job)
         assert self._pending is not None
@@ -254,21 +238,21 @@ class TrainingWorker:
 
 #: workers of this process, one per configuration: designers run one after another and share
 #: them (each job starts from fresh weights), so each compiles its training step once
-_WORKERS: dict[WorkerConfig, TrainingWorker] = {}
+_WORKERS: dict[TrainerSpec, TrainingWorker] = {}
 
 
-def training_worker(config: WorkerConfig) -> TrainingWorker:
+def training_worker(spec: TrainerSpec) -> TrainingWorker:
     """This configuration's worker, started if there is none; one that died since is an error
     (the designer then trains in this process and discards it)."""
-    worker = _WORKERS.get(config)
+    worker = _WORKERS.get(spec)
     if worker is None:
-        worker = _WORKERS[config] = TrainingWorker(config)
+        worker = _WORKERS[spec] = TrainingWorker(spec)
     elif not worker.alive:
         raise WorkerError(f"training process exited with code {worker.exitcode}")
     return worker
 
 
-def discard_worker(config: WorkerConfig) -> None:
-    worker = _WORKERS.pop(config, None)
+def discard_worker(spec: TrainerSpec) -> None:
+    worker = _WORKERS.pop(spec, None)
     if worker is not None:
         worker.close()

@@ -8,7 +8,7 @@ minimises the MSE between the true and the predicted noise.
 What makes it fast is not the arithmetic but the overhead around it (a step is a few
 milliseconds of tiny kernels): the forward and backward passes are hand-derived
 (:mod:`.backprop`), all parameters and gradients live in two flat buffers so the optimizer is
-one fused kernel over 90,833 numbers (``torch.optim.AdamW(fused=True)``), each epoch's
+one fused kernel over all of them (``torch.optim.AdamW(fused=True)``; the count: :mod:`.model`), each epoch's
 shuffle, timesteps, noise and noisy inputs are drawn and computed in a handful of batched
 operations, and the time features of every timestep are tabulated once.
 """
@@ -25,16 +25,46 @@ import torch
 
 from .backprop import FastUNet
 from .model import UNet, reset_parameters
-from .schedule import NoiseSchedule
+from .schedule import NoiseSchedule, make_schedule
 
 
 @dataclass(frozen=True)
-class TrainResult:
+class FitResult:
     """What one training run did: epochs run, mean loss of the last epoch, wall time."""
 
     epochs: int
     loss: float
     seconds: float
+
+
+@dataclass(frozen=True)
+class TrainerSpec:
+    """Everything that makes two trainers compute the same numbers (trainers and training
+    processes are shared by it)."""
+
+    schedule: tuple[str, int, float, float]  # make_schedule's arguments
+    shape: tuple[int, int]
+    lr: float
+    compile: bool
+    threads: int | None
+    device: str = "cpu"
+
+    def make(self) -> Trainer:
+        return Trainer(
+            make_schedule(*self.schedule), shape=self.shape, lr=self.lr, device=self.device, compile=self.compile
+        )
+
+
+#: trainers shared by the designers of one process (they run one after another): every
+#: generation starts from fresh weights anyway, and sharing compiles the step only once
+_TRAINERS: dict[TrainerSpec, Trainer] = {}
+
+
+def shared_trainer(spec: TrainerSpec) -> Trainer:
+    """This process's trainer for ``spec``, made on first use."""
+    if spec not in _TRAINERS:
+        _TRAINERS[spec] = spec.make()
+    return _TRAINERS[spec]
 
 
 def repeat_to(data: torch.Tensor, size: int) -> torch.Tensor:
@@ -92,7 +122,9 @@ class Trainer:
             # the C++ wrapper runs the graph's ~500 kernel calls and allocations without Python
             # in between: 12% faster steps than inductor's Python wrapper, no longer to compile
             compiled = torch.compile(self.net.step, dynamic=False, options={"cpp_wrapper": True})
-            step = self._compiled[size] = self._first_call(compiled, self.net.step, lambda: self._compiled.__setitem__(size, compiled))
+            step = self._compiled[size] = self._first_call(
+                compiled, self.net.step, lambda: self._compiled.__setitem__(size, compiled)
+            )
         return step
 
     def sample_forward(self) -> Callable[[torch.Tensor, torch.Tensor], torch.Tensor]:
@@ -107,7 +139,9 @@ class Trainer:
                 torch._dynamo.mark_dynamic(x, 0)  # one graph whatever the pass size
                 return compiled(x, t_feat)
 
-            self._sample_forward = self._first_call(forward, self.model.forward_features, lambda: setattr(self, "_sample_forward", forward))
+            self._sample_forward = self._first_call(
+                forward, self.model.forward_features, lambda: setattr(self, "_sample_forward", forward)
+            )
         return self._sample_forward
 
     def _first_call(self, compiled: Callable[..., torch.Tensor], eager: Callable[..., torch.Tensor],
@@ -119,7 +153,11 @@ class Trainer:
             try:
                 out = compiled(*args)
             except Exception as exc:  # noqa: BLE001
-                warnings.warn(f"gda: torch.compile failed ({type(exc).__name__}: {exc}); running without it", RuntimeWarning, stacklevel=2)
+                warnings.warn(
+                    f"gda: torch.compile failed ({type(exc).__name__}: {exc}); running without it",
+                    RuntimeWarning,
+                    stacklevel=2,
+                )
                 self.compile = False
                 return eager(*args)
             done()
@@ -165,7 +203,7 @@ class Trainer:
         dataset_size: int = 64,
         target_loss: float | None = None,
         stop: Callable[[], bool] | None = None,
-    ) -> TrainResult:
+    ) -> FitResult:
         """Train on ``data`` (n, 1, H, W encoded bodies) for ``epochs`` epochs.
 
         With ``target_loss`` training stops after the first epoch whose mean loss is at most
@@ -198,7 +236,7 @@ class Trainer:
             if target_loss is not None and epoch_loss <= target_loss:
                 break
         self.net.params.store()
-        return TrainResult(done, epoch_loss, time.perf_counter() - start)
+        return FitResult(done, epoch_loss, time.perf_counter() - start)
 
 
 @dataclass(frozen=True)
@@ -216,7 +254,7 @@ class TrainJob:
         return cls(data.tobytes(), data.shape, int(seed), tuple(sorted(fit.items())))
 
     def run(self, trainer: Trainer, generator: torch.Generator, stop: Callable[[], bool] | None = None,
-            initial: torch.Tensor | None = None) -> TrainResult:
+            initial: torch.Tensor | None = None) -> FitResult:
         """Train ``trainer`` from fresh weights drawn from ``generator`` (or from ``initial``, to warm-start)."""
         trainer.reset(generator)
         if initial is not None:
@@ -225,7 +263,9 @@ class TrainJob:
         data = torch.from_numpy(np.frombuffer(self.data, dtype=np.float32).reshape(self.data_shape).copy())
         return trainer.fit(data, generator=generator, stop=stop, **dict(self.fit))
 
-    def train(self, trainer: Trainer, stop: Callable[[], bool] | None = None) -> tuple[np.ndarray, np.ndarray, TrainResult]:
+    def train(
+        self, trainer: Trainer, stop: Callable[[], bool] | None = None
+    ) -> tuple[np.ndarray, np.ndarray, FitResult]:
         """A fresh model trained from this job's own seed: its weights (training layout), the
         stream's state after training (where sampling goes on) and the result."""
         generator = torch.Generator().manual_seed(self.seed)

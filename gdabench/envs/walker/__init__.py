@@ -11,7 +11,7 @@ one-line error that names v1 (Gymnasium's rule: changed dynamics get a new versi
 
 Modules: ``mesh`` (body -> point masses and springs), ``sim`` (pymunk world and
 :class:`~gdabench.envs.walker.sim.WalkerPhysics`, every physical constant), ``gym_env`` (the
-Gymnasium environment), ``render`` (frames and GIFs), ``env`` (the gdabench environment
+Gymnasium environment), ``render`` (frames), ``env`` (the gdabench environment
 ``walker`` that scores bodies with a controller).
 """
 
@@ -39,7 +39,9 @@ def retired(**kwargs: Any) -> NoReturn:
 def register_gym_envs() -> None:
     """Register ``gdabench/Walker-v1`` and the retired ids with Gymnasium (idempotent)."""
     if ENV_ID not in gymnasium.registry:
-        gymnasium.register(id=ENV_ID, entry_point="gdabench.envs.walker.gym_env:WalkerEnv", max_episode_steps=MAX_EPISODE_STEPS)
+        gymnasium.register(
+            id=ENV_ID, entry_point="gdabench.envs.walker.gym_env:WalkerEnv", max_episode_steps=MAX_EPISODE_STEPS
+        )
     for old in RETIRED_IDS:
         if old not in gymnasium.registry:
             gymnasium.register(id=old, entry_point="gdabench.envs.walker:retired")

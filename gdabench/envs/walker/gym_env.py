@@ -4,15 +4,16 @@ Conventions (Evolution Gym's): the body's grid starts at voxel (1, 1) on flat ri
 100 voxels long; an episode lasts 500 steps (the registered time limit); the reward of a step
 is the change in x of the mean point-mass position; passing x = 9.9 adds +1 and ends the
 episode; an unstable simulation gives -3 and ends it.  The observation is the centre-of-mass
-velocity (2) followed by every point's position relative to the centre of mass (all x, then
-all y), each multiplied by the voxel size as Evolution Gym's benchmark tasks do; the action is one target length ratio in [0.6, 1.6] per actuator voxel, in the order
-of :attr:`WalkerEnv.actuator_voxels`.  The episode return includes the final step's reward
-(Evolution Gym 1.0's scoring), so crossing the course scores about 10.5.
+velocity (2) followed by every point's position relative to the centre of mass (all x, then all y),
+each multiplied by the voxel size as Evolution Gym's benchmark tasks do; the action is one target
+length ratio in [0.6, 1.6] per actuator voxel, in the order of :attr:`WalkerEnv.actuator_voxels`.
+The episode return includes the final step's reward (Evolution Gym 1.0's scoring), so crossing the
+course scores about 10.5.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import gymnasium
 import numpy as np
@@ -89,7 +90,9 @@ class WalkerEnv(gymnasium.Env):
         rel = pos - pos.mean(axis=0)
         return self.physics.voxel_size * np.concatenate([vel.mean(axis=0), rel[:, 0], rel[:, 1]])
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)  # the simulation itself is deterministic: the seed changes nothing
         if not self._untouched:
             self._new_sim()
@@ -98,7 +101,10 @@ class WalkerEnv(gymnasium.Env):
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         ratios = np.asarray(action, dtype=np.float64).reshape(-1)
         if ratios.shape != self.action_space.shape:
-            raise ValueError(f"the walker expects {self.action_space.shape[0]} actions (one per actuator), got {ratios.shape[0]}")
+            raise ValueError(
+                f"the walker expects {cast('tuple[int]', self.action_space.shape)[0]} actions (one per actuator), "
+                f"got {ratios.shape[0]}"
+            )
         if not np.isfinite(ratios).all():
             raise ValueError("walker actions must be finite numbers")
         self._untouched = False

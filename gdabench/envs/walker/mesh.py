@@ -194,7 +194,7 @@ def build_mesh(
         edge(bl, br, code, along_x)
         edge(tl, bl, code, along_y)
         edge(tr, br, code, along_y)
-    for (r, c), (tl, tr, br, bl), code in zip(voxel_cells, corners, codes):  # diagonals after all edges, as Evolution Gym
+    for _, (tl, tr, br, bl), code in zip(voxel_cells, corners, codes):  # diagonals after all edges, as Evolution Gym
         diagonal_spring(tr, bl, code)
         diagonal_spring(tl, br, code)
 

@@ -1,4 +1,4 @@
-"""Headless drawing of the walker world with Pillow, and saving frames as an animated GIF.
+"""Headless drawing of the walker world with Pillow (GIFs: :func:`gdabench.report.animation.frames_to_gif`).
 
 Colours follow Evolution Gym's: rigid black, soft grey, horizontal actuators orange, vertical
 actuators blue.  The camera follows the body's centre of mass; tick marks every metre along
@@ -6,9 +6,6 @@ the terrain make forward motion visible even though the camera moves with the bo
 """
 
 from __future__ import annotations
-
-from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 from PIL import Image, ImageDraw
@@ -62,14 +59,3 @@ class Renderer:
             xs, ys = px(quad[:, 0], quad[:, 1])
             canvas.polygon(list(zip(xs.tolist(), ys.tolist())), fill=color, outline=(0, 0, 0))
         return np.asarray(image)
-
-
-def save_gif(frames: Sequence[np.ndarray], path: str | Path, *, fps: float = 25.0) -> Path:
-    """Write RGB frames as a looping GIF (``fps`` frames per second) and return the path."""
-    if not frames:
-        raise ValueError("no frames to save")
-    images = [Image.fromarray(np.asarray(f, dtype=np.uint8)) for f in frames]
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    images[0].save(path, save_all=True, append_images=images[1:], duration=int(round(1000 / fps)), loop=0, optimize=True)
-    return path

@@ -22,7 +22,7 @@ from .mesh import Mesh, SpringTable, build_mesh
 
 #: the rest-length setter itself: assigning through the attribute passes pymunk's typing mixin's
 #: ``__setattr__`` first, which made setting ~100 rest lengths per step 2.5 times slower
-_SET_REST_LENGTH = pymunk.DampedSpring.rest_length.fset
+_SET_REST_LENGTH = pymunk.DampedSpring.rest_length.fset  # type: ignore[attr-defined]  # a property at run time
 
 
 @dataclass(frozen=True)
@@ -143,7 +143,11 @@ class VoxelSim:
         self._buffer = pymunk.batch.Buffer()
         self._rows = self._batch_rows()
         self._contacts = pymunk.batch.Buffer()
-        self._contact_fields = pymunk.batch.ArbiterFields.BODY_A_ID | pymunk.batch.ArbiterFields.BODY_B_ID | pymunk.batch.ArbiterFields.TOTAL_IMPULSE
+        self._contact_fields = (
+            pymunk.batch.ArbiterFields.BODY_A_ID
+            | pymunk.batch.ArbiterFields.BODY_B_ID
+            | pymunk.batch.ArbiterFields.TOTAL_IMPULSE
+        )
         self._velocity_buffer = pymunk.batch.Buffer()
         self._fields = pymunk.batch.BodyFields.POSITION | pymunk.batch.BodyFields.VELOCITY
         self._read_state()
@@ -175,7 +179,7 @@ class VoxelSim:
             shape.elasticity = 0.0
             space.add(body, shape)
             self._bodies.append(body)
-        self._springs = []
+        self._springs: list[pymunk.Constraint] = []
         driven = set(m.driven.tolist())
         for s, ((a, b), rest, k) in enumerate(zip(m.spring_ends, m.spring_base, m.stiffness)):
             body_a, body_b = self._bodies[a], self._bodies[b]
@@ -185,13 +189,17 @@ class VoxelSim:
                 joint.collide_bodies = False
                 space.add(joint)
                 continue
-            spring = pymunk.DampedSpring(body_a, body_b, (0, 0), (0, 0), float(rest), float(k), float(k * p.damping_time))
+            spring = pymunk.DampedSpring(
+                body_a, body_b, (0, 0), (0, 0), float(rest), float(k), float(k * p.damping_time)
+            )
             spring.collide_bodies = False
             space.add(spring)
             self._springs.append(spring)
             if s in driven:  # an actuator can pull it far: clamp it as Evolution Gym does
                 r = float(rest)
-                clamp = pymunk.SlideJoint(body_a, body_b, (0, 0), (0, 0), r * (1 - p.max_strain), r * (1 + p.max_strain))
+                clamp = pymunk.SlideJoint(
+                    body_a, body_b, (0, 0), (0, 0), r * (1 - p.max_strain), r * (1 + p.max_strain)
+                )
                 clamp.collide_bodies = False
                 space.add(clamp)
         self._separate_coincident_points()
@@ -199,7 +207,10 @@ class VoxelSim:
         # surfaces, so resting point masses sit exactly on them; being a metre thick keeps fast
         # points from tunnelling through
         t, r = self.terrain, p.point_radius
-        for box in (pymunk.BB(t.x_start, t.top - 1.0, t.x_end, t.top - r), pymunk.BB(-1e4, t.floor - 1.0, 1e4, t.floor - r)):
+        for box in (
+            pymunk.BB(t.x_start, t.top - 1.0, t.x_end, t.top - r),
+            pymunk.BB(-1e4, t.floor - 1.0, 1e4, t.floor - r),
+        ):
             ground = pymunk.Poly.create_box_bb(space.static_body, box)
             ground.friction = 0.0
             space.add(ground)
@@ -252,7 +263,9 @@ class VoxelSim:
         pymunk.batch.get_space_bodies(self.space, pymunk.batch.BodyFields.VELOCITY, self._buffer)
         velocity = np.frombuffer(self._buffer.float_buf(), dtype=np.float64).reshape(-1, 2).copy()
         v = velocity[rows]
-        slide = np.einsum("ij,ij->i", v, tangent) * -np.expm1(-self.physics.ground_friction * j / self.physics.point_mass)
+        slide = np.einsum("ij,ij->i", v, tangent) * -np.expm1(
+            -self.physics.ground_friction * j / self.physics.point_mass
+        )
         velocity[rows] = v - slide[:, None] * tangent
         self._velocity_buffer.set_float_buf(velocity.reshape(-1))
         pymunk.batch.set_space_bodies(self.space, pymunk.batch.BodyFields.VELOCITY, self._velocity_buffer)
