@@ -3,7 +3,8 @@
 For each body (Evolution Gym's sampler, ``gdabench.random_body``) one episode of uniformly
 random actions in [0.6, 1.6] (or, with ``--actions open-loop``, the open-loop controller's
 default gait) is played on the walker of ``--engine`` (``voxel``: ``gdabench/Walker-v2``, the
-default; ``pymunk``: ``gdabench/Walker-v1``).  Prints the share of
+default; ``pymunk``: ``gdabench/Walker-v1``; ``evogym``: Evolution Gym 2.0's own Walker-v0, run in the
+Evolution Gym plugin's venv, for reference).  Prints the share of
 episodes that ended unstable (-3, terminated) with the reasons, and checks that nothing
 slipped through undetected: no exception, no NaN, every observation inside the observation
 space, no step moving the centre of mass implausibly far, every unstable step rewarded -3.
@@ -11,12 +12,15 @@ space, no step moving the centre of mass implausibly far, every unstable step re
     python benchmarks/walker_stability.py --bodies 1000 --steps 500 --seed 0
     python benchmarks/walker_stability.py --bodies 1000 --actions open-loop
     python benchmarks/walker_stability.py --bodies 200 --engine pymunk --physics substeps=4
+    python benchmarks/walker_stability.py --bodies 100 --actions open-loop --engine evogym
 """
 
 from __future__ import annotations
 
 import argparse
 import collections
+import contextlib
+import io
 import sys
 import time
 
@@ -33,21 +37,38 @@ from gdabench.envs.walker.sim import WalkerPhysics
 IMPLAUSIBLE_STEP = 0.3
 
 
-def episode(body: gdabench.Body, engine: str, physics: WalkerPhysics, rng: np.random.Generator, steps: int,
-            actions: str) -> dict:
+def make(body: gdabench.Body, engine: str, physics: WalkerPhysics, steps: int) -> tuple[gymnasium.Env, np.ndarray]:
+    """The environment, and its actuator voxels (row, col, code) in action order."""
+    if engine == "evogym":
+        with contextlib.redirect_stdout(io.StringIO()):
+            import evogym.envs  # noqa: F401 - registers Walker-v0
+
+            env = gymnasium.make("Walker-v0", body=body.voxels.astype(float), max_episode_steps=steps)
+        width = body.shape[1]
+        index = env.unwrapped.get_actuator_indices("robot")
+        return env, np.array([(i // width, i % width, body.voxels.flat[i]) for i in index], dtype=np.int64)
     extra = {"physics": physics} if engine == "pymunk" else {}
     env = gymnasium.make(ENGINES[engine], body=body, max_episode_steps=steps, **extra)
+    return env, env.unwrapped.actuator_voxels
+
+
+def episode(body: gdabench.Body, engine: str, physics: WalkerPhysics, rng: np.random.Generator, steps: int,
+            actions: str) -> dict:
+    env, actuators = make(body, engine, physics, steps)
     out = {"unstable": None, "nan": False, "outside": False, "implausible": False, "bad_penalty": False, "steps": 0}
     obs, _ = env.reset(seed=0)
     space = env.observation_space
     gait = OpenLoop().pattern
-    phases = gait.phases(env.unwrapped.actuator_voxels)
+    phases = gait.phases(actuators)
     while True:
         if actions == "random":
             action = rng.uniform(0.6, 1.6, size=env.action_space.shape)
         else:
             action = np.clip(gait.action(phases, out["steps"]), 0.6, 1.6)
-        obs, reward, terminated, truncated, info = env.step(action)
+        with contextlib.redirect_stdout(io.StringIO()):  # Evolution Gym prints its unstable steps
+            obs, reward, terminated, truncated, info = env.step(action)
+        if engine == "evogym" and terminated and reward < -1.0:
+            info = {"unstable": "self-intersection"}
         out["steps"] += 1
         if not (np.isfinite(obs).all() and np.isfinite(reward)):
             out["nan"] = True
@@ -69,7 +90,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--shape", default="5x5")
     parser.add_argument("--actions", choices=("random", "open-loop"), default="random")
-    parser.add_argument("--engine", choices=tuple(ENGINES), default="voxel")
+    parser.add_argument("--engine", choices=(*ENGINES, "evogym"), default="voxel")
     parser.add_argument("--physics", nargs="*", default=[], metavar="KEY=VALUE", help="override WalkerPhysics fields (pymunk)")
     args = parser.parse_args()
     try:
@@ -101,7 +122,7 @@ def main() -> None:
                 examples.setdefault(key, body.text)
     seconds = time.perf_counter() - start
     unstable = sum(reasons.values())
-    print(f"{ENGINES[args.engine]}: {args.bodies} bodies ({args.shape}), {args.actions} actions, {args.steps} steps each, seed {args.seed}")
+    print(f"{ENGINES.get(args.engine, 'Evolution Gym 2.0 Walker-v0')}: {args.bodies} bodies ({args.shape}), {args.actions} actions, {args.steps} steps each, seed {args.seed}")
     print(f"unstable episodes: {unstable} ({100.0 * unstable / args.bodies:.2f}%)")
     for reason, count in reasons.most_common():
         print(f"  {count:5d}  {reason}  (e.g. {examples[reason]})")
