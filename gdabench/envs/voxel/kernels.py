@@ -106,6 +106,13 @@ def _inside(px, py, x0, y0, x1, y1, x2, y2, x3, y3, lox, loy, hix, hiy):
 
 
 @_jit
+def _corners(pos, points, r):
+    """The corners (x, y) of boxel ``r``: top-left, top-right, bottom-right, bottom-left."""
+    return (pos[points[r, 0], 0], pos[points[r, 0], 1], pos[points[r, 1], 0], pos[points[r, 1], 1],
+            pos[points[r, 2], 0], pos[points[r, 2], 1], pos[points[r, 3], 0], pos[points[r, 3], 1])
+
+
+@_jit
 def _resolve_point(p, main_edges, m, corner, pm, em, vm, fm, apply_m, ref_edges, r, pr, er, surf_r, vr, fr, apply_r,
                    times):
     """``PhysicsEngine::resolve_point_boxel_collisions``: push point ``p`` of a boxel out of another.
@@ -261,10 +268,7 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
         for d in range(2):
             m, r = (i, j) if d == 0 else (j, i)
             mask = pairs[q, 3 + d]
-            cx0, cy0 = pos[sbp[r, 0], 0], pos[sbp[r, 0], 1]
-            cx1, cy1 = pos[sbp[r, 1], 0], pos[sbp[r, 1], 1]
-            cx2, cy2 = pos[sbp[r, 2], 0], pos[sbp[r, 2], 1]
-            cx3, cy3 = pos[sbp[r, 3], 0], pos[sbp[r, 3], 1]
+            cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3 = _corners(pos, sbp, r)
             for corner in range(4):
                 p = sbp[m, corner]
                 if (mask >> corner) & 1 and _inside(pos[p, 0], pos[p, 1], cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3,
@@ -282,20 +286,14 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
                 if bb[q, 0] > tbb[t, 2] or bb[q, 2] < tbb[t, 0] or bb[q, 1] > tbb[t, 3] or bb[q, 3] < tbb[t, 1]:
                     continue  # BoundingBox::in: the boxes neither overlap nor touch
                 # the robot's corners inside the terrain boxel, then the terrain's inside the robot's
-                cx0, cy0 = tpos[tbp[t, 0], 0], tpos[tbp[t, 0], 1]
-                cx1, cy1 = tpos[tbp[t, 1], 0], tpos[tbp[t, 1], 1]
-                cx2, cy2 = tpos[tbp[t, 2], 0], tpos[tbp[t, 2], 1]
-                cx3, cy3 = tpos[tbp[t, 3], 0], tpos[tbp[t, 3], 1]
+                cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3 = _corners(tpos, tbp, t)
                 for corner in range(4):
                     p = sbp[q, corner]
                     if _inside(pos[p, 0], pos[p, 1], cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3,
                                tbb[t, 0], tbb[t, 1], tbb[t, 2], tbb[t, 3]):
                         _resolve_point(p, sbe, q, corner, pos, ea, vt, cf, True, tbe, t, tpos, tedge, tsurf, tzero,
                                        tzero, False, 1)
-                cx0, cy0 = pos[sbp[q, 0], 0], pos[sbp[q, 0], 1]
-                cx1, cy1 = pos[sbp[q, 1], 0], pos[sbp[q, 1], 1]
-                cx2, cy2 = pos[sbp[q, 2], 0], pos[sbp[q, 2], 1]
-                cx3, cy3 = pos[sbp[q, 3], 0], pos[sbp[q, 3], 1]
+                cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3 = _corners(pos, sbp, q)
                 for corner in range(4):
                     p = tbp[t, corner]
                     if _inside(tpos[p, 0], tpos[p, 1], cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3,
