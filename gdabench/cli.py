@@ -268,6 +268,11 @@ RUN_OPTIONS: dict[str, Any] = {
 }
 
 
+def _typed(ctx: typer.Context, names: list[str]) -> frozenset[str]:
+    """The options among ``names`` the user typed (an option left at its default is not one of them)."""
+    return frozenset(n for n in names if getattr(ctx.get_parameter_source(n), "name", "DEFAULT") not in ("DEFAULT", "DEFAULT_MAP"))
+
+
 def with_run_options(command: Callable[..., None]) -> Callable[..., None]:
     """Give ``command(..., options: RunOptions)`` the shared options as typer parameters."""
     own = [p for p in inspect.signature(command, eval_str=True).parameters.values() if p.name != "options"]
@@ -280,8 +285,7 @@ def with_run_options(command: Callable[..., None]) -> Callable[..., None]:
     context = inspect.Parameter("ctx", inspect.Parameter.KEYWORD_ONLY, annotation=typer.Context)
 
     def wrapper(ctx: typer.Context, **kwargs: Any) -> None:
-        given = frozenset(n for n in names if getattr(ctx.get_parameter_source(n), "name", "DEFAULT") not in ("DEFAULT", "DEFAULT_MAP"))
-        options = RunOptions(**{n: kwargs.pop(n) for n in names}, explicit=given)
+        options = RunOptions(**{n: kwargs.pop(n) for n in names}, explicit=_typed(ctx, names))
         command(**kwargs, options=options)
 
     wrapper.__name__, wrapper.__doc__ = command.__name__, command.__doc__
@@ -412,6 +416,7 @@ def run(
 
 @app.command()
 def evaluate(
+    ctx: typer.Context,
     body: Annotated[str, typer.Argument(help="Body in text form, rows separated by '/', e.g. 44444/44444/44444/44444/44444.")],
     env: Annotated[str, RUN_OPTIONS["env"]] = "simple",
     controller: Annotated[Optional[str], RUN_OPTIONS["controller"]] = None,
@@ -429,8 +434,9 @@ def evaluate(
 
         parsed = Body.from_text(body)
         check_seed(seed)
+        typed = _typed(ctx, ["env", "controller", "env_param", "controller_param"])
         options = RunOptions(env=env, controller=controller, env_param=env_param, controller_param=controller_param,
-                             shape=f"{parsed.shape[0]}x{parsed.shape[1]}", population=1, budget=1)
+                             shape=f"{parsed.shape[0]}x{parsed.shape[1]}", population=1, budget=1, explicit=typed)
         plan = Plan.resolve(options.experiment("random", ExperimentFile(None)), registry(), designers=False)
         scorer, _ = plan.scorers()
         reason = scorer.invalid_reason(parsed)
