@@ -307,11 +307,23 @@ class RunDirectory:
             return None
 
     def pending_rows(self, name: str, before_generation: int | None = None) -> pd.DataFrame | None:
-        """Rows of an unfinished trial; generation files from ``before_generation`` on are deleted."""
+        """Rows of an unfinished trial; generation files from ``before_generation`` on are deleted.
+
+        With ``before_generation`` (the trial's checkpoint), every generation before it must have its
+        file: a gap would silently change the table, so it is refused naming the first missing file.
+        """
         folder = self.path / PENDING / name
+        files = {int(file.stem[4:]): file for file in folder.glob("gen-*.parquet")}
+        if before_generation is not None:
+            missing = next((g for g in range(before_generation) if g not in files), None)
+            if missing is not None:
+                raise RunDirectoryError(
+                    f"{folder / f'gen-{missing:06d}.parquet'} is missing, but the trial's checkpoint is at generation "
+                    f"{before_generation}: restore the file, or delete {folder} and {self.checkpoint_path(name)} "
+                    "to run this trial again from its start")
         frames = []
-        for file in sorted(folder.glob("gen-*.parquet")):
-            if before_generation is not None and int(file.stem[4:]) >= before_generation:
+        for generation, file in sorted(files.items()):
+            if before_generation is not None and generation >= before_generation:
                 file.unlink()
             else:
                 frames.append(self._read(file))

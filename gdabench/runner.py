@@ -246,11 +246,11 @@ def _run_trials(plan: Plan, run: RunDirectory, execution: Execution, listener: R
                     spec = todo.popleft()
                     try:
                         checkpoint = _load_checkpoint(run, spec)
+                        done = run.pending_rows(spec.name, before_generation=checkpoint.next_generation if checkpoint else 0)
                     except RunDirectoryError as exc:
                         failures[spec.index] = str(exc)
                         listener.trial_finished(spec, str(exc))
                         continue
-                    done = run.pending_rows(spec.name, before_generation=checkpoint.next_generation if checkpoint else 0)
                     worker = idle.pop() if idle else workers.start()
                     workers.call(worker, "open", spec, checkpoint, done)
                     running[worker] = spec

@@ -157,6 +157,29 @@ def test_sigterm_is_an_interruption_and_resumes(tmp_path, faulty_site, reference
     assert_whole(out, reference)
 
 
+@pytest.mark.parametrize("lost", ["gen-000000.parquet", "gen-000002.parquet", "."])
+def test_a_generation_file_missing_under_a_checkpoint_is_refused_naming_it(lost, tmp_path, faulty_site, reference):
+    out = tmp_path / "run"
+    dead = cli(*ARGS, "--jobs", "1", "--out", str(out), site=faulty_site, env={"GDABENCH_FAULT": "checkpoint-written:4"})
+    assert dead.returncode == -signal.SIGKILL, dead.stderr
+    folder = out / "pending" / "ga-seed0"
+    written = sorted(p.name for p in folder.glob("gen-*"))
+    assert written == [f"gen-{g:06d}.parquet" for g in range(4)]
+    left = [] if lost == "." else [name for name in written if name != lost]
+    subprocess.run(["rm", "-r", str(folder if lost == "." else folder / lost)], check=True)
+    first_missing = folder / ("gen-000000.parquet" if lost == "." else lost)
+    for _ in range(2):  # every resume says the same, and writes no generation past the gap
+        resumed = cli("compare", "--resume", str(out), "-q", "--no-report", site=faulty_site)
+        lines = error_lines(resumed)
+        assert resumed.returncode == 1 and len(lines) == 1, resumed.stderr
+        assert lines[0].startswith("error: ") and f"{first_missing} is missing" in lines[0], resumed.stderr
+        assert sorted(p.name for p in folder.glob("gen-*")) == left
+    assert RunDirectory.open(out).meta["status"] == "failed"
+    subprocess.run(["rm", "-rf", str(folder), str(out / "checkpoints" / "ga-seed0.pkl")], check=True)  # what the line says to do
+    assert cli("compare", "--resume", str(out), "-q", "--no-report", site=faulty_site).returncode == 0
+    assert_whole(out, reference)
+
+
 def test_ctrl_c_pressed_again_and_again_gives_one_line(tmp_path, faulty_site):
     out = tmp_path / "run"
     proc = cli(*ARGS, "--out", str(out), site=faulty_site, env=SLOW, background=True)
