@@ -242,7 +242,7 @@ class Experiment:
             raise ConfigError(f"{where}: expected a table, got {type(data).__name__}")
         try:
             envs = data["envs"] if "envs" in data else [data["env"]]
-            return cls(
+            experiment = cls(
                 designers=tuple(PluginChoice.from_json(d, f"{where}.designers") for d in data["designers"]),
                 envs=tuple(PluginChoice.from_json(e, f"{where}.envs") for e in envs),
                 controller=None if data.get("controller") is None else PluginChoice.from_json(data["controller"], f"{where}.controller"),
@@ -256,3 +256,8 @@ class Experiment:
             raise ConfigError(f"{where}: missing {exc.args[0]!r}") from None
         except TypeError as exc:
             raise ConfigError(f"{where}: malformed ({exc})") from None
+        try:
+            experiment.check()
+        except ConfigError as exc:
+            raise ConfigError(f"{where}: {exc}") from None
+        return experiment

@@ -9,7 +9,6 @@ trials build them, for ``evaluate``, ``replay`` and the report.
 from __future__ import annotations
 
 import json
-import re
 from pathlib import Path
 from dataclasses import dataclass, field
 from typing import Any, Mapping
@@ -20,6 +19,7 @@ from .designer import Designer
 from .environment import Controller, Environment
 from .errors import ConfigError, GdabenchError, PluginError, one_line
 from .execution.cache import recipe_identity
+from .names import file_name
 from .params import check_params
 from .plugins import Registry, registry
 from .results import RunDirectory
@@ -32,11 +32,6 @@ HARNESS_ENV_ARGS = ("shape",)
 
 def _json(params: Mapping[str, Any]) -> str:
     return json.dumps(dict(params), sort_keys=True, default=str)
-
-
-def file_name(text: str) -> str:
-    """``text`` made safe as (part of) a file name."""
-    return re.sub(r"[^A-Za-z0-9_.=-]+", "_", text)
 
 
 def _build(kind: str, label: str, recipe: Factory, **harness: Any) -> Any:

@@ -42,7 +42,7 @@ import pandas as pd
 from filelock import FileLock, Timeout
 
 from . import faults
-from .errors import ConfigError, RunDirectoryError, RunLockedError
+from .errors import ConfigError, GdabenchError, RunDirectoryError, RunFailure, RunLockedError
 
 FORMAT = "gdabench-run/1"
 RUN_JSON = "run.json"
@@ -135,6 +135,14 @@ def no_space(exc: BaseException) -> bool:
     return isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT)
 
 
+def write_error(exc: OSError, where: Path) -> GdabenchError:
+    """One line for a write under ``where`` that the system refused: a full disk is a failed run
+    (exit 1, wherever it happens), anything else (a read-only or odd place the user chose) an input error."""
+    if no_space(exc):
+        return RunFailure(f"no space left on the device of {where}")
+    return ConfigError(f"cannot write to {where}: {exc.strerror or exc}")
+
+
 def versions(distributions: Mapping[str, str]) -> dict[str, Any]:
     """Versions of Python, the core libraries and every plugin distribution."""
 
@@ -195,12 +203,17 @@ class RunDirectory:
             if not run.path.is_dir():
                 raise ConfigError(f"output path {run.path} exists and is not a directory") from None
         except OSError as exc:
+            if no_space(exc):
+                raise write_error(exc, run.path) from None
             raise ConfigError(f"cannot create the run directory {run.path}: {exc.strerror or exc}") from None
         run.lock()
         try:
             if any(entry not in (LOCK, WRITER) for entry in os.listdir(run.path)):
                 raise ConfigError(f"output directory {run.path} already exists and is not empty; choose another --out or --resume it")
-            run.write_meta({"format": FORMAT, **meta})
+            try:
+                run.write_meta({"format": FORMAT, **meta})
+            except OSError as exc:
+                raise write_error(exc, run.path) from None
         except BaseException:
             run.unlock()
             if made:

@@ -25,7 +25,7 @@ from typing import Any, Iterator, Sequence
 
 from . import faults
 from .config import Experiment, format_seeds
-from .errors import ConfigError, GdabenchError, RunDirectoryError, RunFailure, Terminated, TrialError, one_line
+from .errors import ConfigError, GdabenchError, RunDirectoryError, Terminated, TrialError, one_line
 from .execution import cores
 from .execution.options import Execution, cpu_count
 from .events import Listeners, PluginHooks, RunListener
@@ -33,7 +33,7 @@ from .execution.trials import InProcess, LocalProcesses, TrialHost, TrialWorkers
 from .plan import Plan, TrialSpec
 from .plugins import Registry, registry
 from .report.summary import summarize
-from .results import SUMMARY, Checkpoint, RunDirectory, no_space, platform_info, utc_now, versions
+from .results import SUMMARY, Checkpoint, RunDirectory, no_space, platform_info, utc_now, versions, write_error
 from .trial import GenerationResult
 
 
@@ -89,6 +89,8 @@ def compare(
         stored = Experiment.from_json(meta["config"], f"{run.path / 'run.json'}: config")
         experiment = with_added_seeds(stored, experiment)
         if meta.get("status") == "complete" and experiment == stored:
+            if not run.evaluations_path.exists():
+                raise RunDirectoryError(f"run {run.path} is complete but its table {run.evaluations_path} is missing; restore it")
             return run
         if execution.timeout is None and (meta.get("execution") or {}).get("timeout"):
             execution = Execution(**{**execution.to_json(), "timeout": meta["execution"]["timeout"]})
@@ -117,7 +119,7 @@ def compare(
             listener.run_finished(run.path, "interrupted", None)
         raise
     except BaseException as exc:
-        error = RunFailure(f"no space left on the device of {run.path}") if no_space(exc) else exc
+        error = write_error(exc, run.path) if isinstance(exc, OSError) and no_space(exc) else exc
         run.update_meta(status="failed", error=str(error) if isinstance(error, GdabenchError) else one_line(error))
         listener.run_finished(run.path, "failed", None)
         if error is not exc:

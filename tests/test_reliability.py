@@ -217,6 +217,43 @@ def test_a_full_disk_fails_the_run_in_one_line_and_keeps_what_was_written(small_
     assert len(run.load_evaluations()) > 0 and not list(out.rglob("*.tmp"))
 
 
+def fill(disk: Path) -> None:
+    """Leave no free byte on ``disk``."""
+    subprocess.run(["dd", "if=/dev/zero", f"of={disk / 'filler'}", "bs=4k"], capture_output=True)
+
+
+def test_a_full_disk_is_one_line_and_exit_1_for_every_command(small_disk, faulty_site):
+    run = small_disk / "run"
+    assert cli("compare", "-d", "random", "--budget", "50", "-q", "--no-report", "--out", str(run), site=faulty_site).returncode == 0
+    fill(small_disk)
+    for args, where in [(["report", str(run)], run / "report"), (["export", str(run)], run / "export" / "ioh"),
+                        (["export", str(run), "-f", "csv"], run / "export" / "evaluations.csv"),
+                        (["compare", "-d", "random", "--budget", "50", "-q", "--out", str(small_disk / "new")], small_disk / "new")]:
+        result = cli(*args, site=faulty_site)
+        lines = error_lines(result)
+        assert result.returncode == 1 and len(lines) == 1, (args, result.stderr)
+        assert lines[0].startswith(f"error: no space left on the device of {where}"), result.stderr
+        assert not where.exists()
+    assert not (small_disk / "new").exists() and not list(small_disk.rglob("*.tmp")) and not list(small_disk.rglob("*gdabench-*"))
+
+
+# -- reports and exports ------------------------------------------------------------------------------
+@pytest.mark.parametrize("command, made", [(["report"], "report"), (["export"], "export/ioh")])
+def test_a_killed_report_or_export_leaves_nothing_half_written(command, made, tmp_path, faulty_site):
+    out = tmp_path / "run"
+    assert cli("compare", "-d", "random", "--budget", "50", "-q", "--no-report", "--out", str(out), site=faulty_site).returncode == 0
+    dead = cli(*command, str(out), site=faulty_site, env={"GDABENCH_FAULT": "output-staged"})
+    assert dead.returncode == -signal.SIGKILL, dead.stderr
+    assert not (out / made).exists()  # nothing, rather than a part
+    assert list(out.rglob("*gdabench-*"))  # what the kill left (the next writer clears it)
+    (out / "export").mkdir(exist_ok=True)
+    (out / "export" / ".evaluations.csv.k1ll3d.tmp").write_text("half a table")  # as a killed CSV export leaves
+    for again in (command, ["export", "-f", "csv"]):
+        assert cli(*again, str(out), site=faulty_site).returncode == 0
+    assert (out / made).is_dir() and not list(out.rglob("*gdabench-*")) and not list(out.rglob("*.tmp"))
+    assert (out / "report" / "report.html").exists() or command == ["export"]
+
+
 # -- input errors: one line, exit 2, nothing made ----------------------------------------------------
 BAD_INPUT = [
     (["-d", "ga[survivors=abc]"], "designer 'ga[survivors=abc]': parameter 'survivors' must be an integer or null, got 'abc'"),
@@ -262,6 +299,42 @@ def test_output_paths_that_cannot_be_a_run_directory(tmp_path):
         result = CliRunner().invoke(app, ["compare", "-d", "random", "--out", str(out), "-q"], env={"COLUMNS": "300"})
         lines = [line for line in result.stderr.splitlines() if line.strip()]
         assert result.exit_code == 2 and len(lines) == 1 and fragment in lines[0], (out, result.stderr)
+
+
+def test_a_label_too_long_for_a_file_name_runs_reports_and_exports(tmp_path):
+    long = "ga[mutation_rate=0." + "1" * 260 + "]"
+    out = tmp_path / "run"
+    for args in (["compare", "-d", f"{long},random", "--budget", "50", "-q", "--out", str(out)], ["export", str(out)]):
+        result = CliRunner().invoke(app, args, env={"COLUMNS": "300"})
+        assert result.exit_code == 0, result.stderr
+    assert set(RunDirectory.open(out).load_evaluations()["designer"]) == {long, "random"}
+
+
+def damaged(tmp_path: Path, damage) -> Path:
+    """A complete run, then ``damage(run_dir)``."""
+    out = tmp_path / "run"
+    assert CliRunner().invoke(app, ["compare", "-d", "random", "--budget", "50", "-q", "--no-report", "--out", str(out)]).exit_code == 0
+    damage(out)
+    return out
+
+
+def budget_abc(out: Path) -> None:
+    meta = RunDirectory.open(out).meta
+    RunDirectory(out).write_meta({**meta, "config": {**meta["config"], "budget": "abc"}})
+
+
+@pytest.mark.parametrize("damage, command, code, fragment", [
+    (budget_abc, ["compare", "--resume"], 2, "run.json: config: budget must be an integer from 1 to 10,000,000, got 'abc'"),
+    (budget_abc, ["report"], 0, "run.json has no readable configuration; budget and seeds are taken from the table"),
+    (lambda out: (out / "evaluations.parquet").unlink(), ["compare", "--no-report", "--resume"], 2, "is complete but its table"),
+    (lambda out: (out / "run.json").write_bytes(b'{"a": "\xff"}'), ["compare", "--config"], 2, "is not UTF-8 text"),
+])
+def test_a_damaged_run_is_one_line_not_an_internal_error(tmp_path, damage, command, code, fragment):
+    out = damaged(tmp_path, damage)
+    result = CliRunner().invoke(app, [*command, str(out / "run.json" if "--config" in command else out)], env={"COLUMNS": "300"})
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert result.exit_code == code and fragment in lines[0] and len(lines) == 1, result.stderr
+    assert "internal error" not in result.stderr
 
 
 @pytest.mark.parametrize("content, fragment", [("[1, 2]", "is not a JSON object"), ('{"format": "gdabench-run/1"}', "has no 'config' table")])

@@ -366,7 +366,7 @@ def test_bad_options(run_dir, tmp_path):
         write_report(run_dir, tmp_path, survivors=0)
     blocker = tmp_path / "file"
     blocker.write_text("")
-    with pytest.raises(ConfigError, match="cannot write the report"):
+    with pytest.raises(ConfigError, match="file exists and is not a directory"):
         write_report(run_dir, blocker / "sub")
     with pytest.raises(RunDirectoryError):
         write_report(tmp_path)

@@ -20,7 +20,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import re
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +32,8 @@ from ..errors import ConfigError, GdabenchError, RunDirectoryError
 from ..execution.evaluation import COUNTED, OK
 from ..plan import Plan
 from ..plugins import Registry, registry
-from ..results import RunDirectory, atomic_write_bytes
+from ..names import file_name
+from ..results import RunDirectory
 from . import plots
 from .animation import animate
 from .bodies import bodies_figure
@@ -41,6 +41,7 @@ from .content import Figure, Report, Section, Table
 from .diversity import NEAR_COPY, SURVIVORS, diversity
 from .html import render_html
 from .markdown import render_markdown
+from .staging import staged_folder
 from .stat_pages import statistics_sections
 from .summary import failure_counts, per_run, summarize, thresholds
 from .stats import CONFIDENCE, RESAMPLES, best_so_far_curve, generation_rewards, median_band
@@ -89,7 +90,7 @@ def _budget(experiment: Experiment | None, frame: pd.DataFrame) -> int:
 
 
 def _slug(label: str, taken: set[str]) -> str:
-    base = re.sub(r"[^A-Za-z0-9_.=-]+", "_", label).strip("_") or "designer"
+    base = file_name(label).strip("_") or "designer"
     slug, i = base, 1
     while slug in taken:
         i += 1
@@ -396,9 +397,9 @@ def _write(report: Report, tables: dict[str, tuple[pd.DataFrame, str]]) -> None:
     files.update({name: table.to_csv(index=False).encode() for name, (table, _) in tables.items()})
     files["summary.md"] = render_markdown(report).encode()
     files["report.html"] = render_html(report).encode()
-    try:
+    if report.out.exists() and not report.out.is_dir():
+        raise ConfigError(f"cannot write the report to {report.out}: it is a file")
+    with staged_folder(report.out, whole=False, last="report.html") as staging:
         for name, data in files.items():
-            atomic_write_bytes(report.out / name, data)
-            os.chmod(report.out / name, 0o644)  # a report is for sharing (temporary files start private)
-    except OSError as exc:
-        raise ConfigError(f"cannot write the report to {report.out}: {exc.strerror or exc}") from None
+            (staging / name).write_bytes(data)
+            os.chmod(staging / name, 0o644)  # a report is for sharing
