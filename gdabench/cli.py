@@ -27,7 +27,7 @@ from .errors import ConfigError, GdabenchError, RunFailure, Terminated
 from .execution.options import Execution
 from .plugins import KINDS, registry
 from .report.diversity import NEAR_COPY, SURVIVORS
-from .report.summary import failure_counts, summarize, thresholds
+from .report.summary import failure_counts, nothing_measured, summarize, thresholds
 from .report.tables import summary_cells
 from .results import RunDirectory
 from .loggers import make_logger
@@ -359,10 +359,9 @@ def _report_failures(run: RunDirectory) -> None:
     counts = failure_counts(run.load_evaluations())
     for row in counts.itertuples():
         err_console.print(escape(f"note: {row.designer} on {row.env}: {row.line}"), style="yellow", highlight=False, soft_wrap=True)
-    hopeless = counts[counts["all_failed_trials"] > 0]
-    if len(hopeless):
-        first = hopeless.iloc[0]
-        raise _fail(f"every evaluation failed in {int(hopeless['all_failed_trials'].sum())} trial(s), e.g. {first['designer']} on {first['env']}", 1)
+    line = nothing_measured(counts)
+    if line is not None:
+        raise _fail(line, 1)
 
 
 def _print_table(title: str, headers: list[str], rows: list[list[str]]) -> None:

@@ -33,7 +33,8 @@ class RunListener:
         """A trial ended: its rows are merged (``error`` None) or it failed with ``error``."""
 
     def run_finished(self, run_dir: Path, status: str, summary: pd.DataFrame | None) -> None:
-        """The run ended: ``complete`` (with its summary table), ``failed`` or ``interrupted``."""
+        """The run ended: ``complete`` (with its summary table), ``failed`` (with the summary when every trial
+        ran but one measured nothing: its every evaluation failed) or ``interrupted``."""
 
 
 class Listeners(RunListener):

@@ -32,7 +32,7 @@ from .events import Listeners, PluginHooks, RunListener
 from .execution.trials import InProcess, LocalProcesses, TrialHost, TrialWorkers
 from .plan import Plan, TrialSpec
 from .plugins import Registry, registry
-from .report.summary import summarize
+from .report.summary import failure_counts, nothing_measured, summarize
 from .results import SUMMARY, Checkpoint, RunDirectory, no_space, platform_info, utc_now, versions, write_error
 from .trial import GenerationResult
 
@@ -110,9 +110,12 @@ def compare(
             if failures:
                 run.update_meta(failed_trials=[{"trial": plan.trials[i].title, "name": plan.trials[i].name, "error": e} for i, e in sorted(failures.items())])
                 raise TrialError(_failure_line(plan, failures))
-            summary = summarize(run.load_evaluations(), {e.label: e.optimum for e in plan.envs})
+            frame = run.load_evaluations()
+            summary = summarize(frame, {e.label: e.optimum for e in plan.envs})
             summary.to_csv(run.path / SUMMARY, index=False)
-            run.update_meta(status="complete", finished=utc_now(), failed_trials=[])
+            measured_nothing = nothing_measured(failure_counts(frame))  # every trial ran, but some measured nothing
+            status = "complete" if measured_nothing is None else "failed"
+            run.update_meta(status=status, error=measured_nothing, finished=utc_now(), failed_trials=[])
     except KeyboardInterrupt as exc:
         with _uninterrupted():
             run.update_meta(status="interrupted", error="terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted by the user")
@@ -127,7 +130,7 @@ def compare(
         raise
     finally:
         run.unlock()
-    listener.run_finished(run.path, "complete", summary)
+    listener.run_finished(run.path, status, summary)
     return run
 
 
