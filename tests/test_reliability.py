@@ -261,6 +261,7 @@ BAD_INPUT = [
     (["-d", "ga[survivors=2.5]"], "parameter 'survivors' must be an integer or null, got 2.5"),
     (["-d", "ga[survivors=true]"], "parameter 'survivors' must be an integer or null, got True"),
     (["-d", "ga[attempts=1.5]"], "parameter 'attempts' must be an integer, got 1.5"),
+    (["-d", "ga[max_tries=0]"], "ga: max_tries must be at least 1, got 0"),
     (["-d", "ga[mutation_rate=high]"], "parameter 'mutation_rate' must be a number, got 'high'"),
     (["-d", "cppn[config=5]"], "cppn: cannot read config file '5'"),
     (["-d", "ga", "--seeds", "99999999999999999999"], "seed must be an integer from 0 to 4294967295"),
