@@ -65,7 +65,10 @@ def split_top_level(text: str, sep: str = ",") -> list[str]:
     if depth != 0:
         raise ConfigError(f"malformed list {text!r}: unbalanced '['")
     parts.append("".join(current))
-    return [p.strip() for p in parts if p.strip()]
+    parts = [p.strip() for p in parts]
+    if "" in parts and any(parts):
+        raise ConfigError(f"malformed list {text!r}: an empty item (a {sep!r} too many?)")
+    return [p for p in parts if p]
 
 
 @dataclass(frozen=True)

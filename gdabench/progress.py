@@ -35,7 +35,8 @@ class ProgressDisplay(RunListener):
         return self
 
     def __exit__(self, *exc: object) -> None:
-        self.progress.stop()
+        if self.progress.live.is_started:  # stopping a display never shown prints an empty line
+            self.progress.stop()
 
     def trial_started(self, spec: TrialSpec) -> None:
         if not self.progress.live.is_started:

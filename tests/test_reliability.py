@@ -262,6 +262,8 @@ BAD_INPUT = [
     (["-d", "ga[survivors=true]"], "parameter 'survivors' must be an integer or null, got True"),
     (["-d", "ga[attempts=1.5]"], "parameter 'attempts' must be an integer, got 1.5"),
     (["-d", "ga[max_tries=0]"], "ga: max_tries must be at least 1, got 0"),
+    (["-d", "ga,"], "malformed list 'ga,': an empty item"),
+    (["-d", "ga,random", "--env", "simple,,nk"], "malformed list 'simple,,nk': an empty item"),
     (["-d", "ga[mutation_rate=high]"], "parameter 'mutation_rate' must be a number, got 'high'"),
     (["-d", "cppn[config=5]"], "cppn: cannot read config file '5'"),
     (["-d", "ga", "--seeds", "99999999999999999999"], "seed must be an integer from 0 to 4294967295"),
@@ -344,6 +346,13 @@ def test_a_damaged_run_json_is_one_line(tmp_path, content, fragment):
     for command in (["compare", "--resume", str(tmp_path)], ["report", str(tmp_path)]):
         result = CliRunner().invoke(app, command, env={"COLUMNS": "300"})
         assert result.exit_code == 2 and fragment in result.stderr and result.stderr.count("\n") == 1, result.stderr
+
+
+def test_an_error_is_the_first_line_on_stderr(tmp_path):
+    """Not an empty line before it (a progress display that never started printed one)."""
+    for args in (["compare", "-d", "nope", "--out", str(tmp_path / "run")], ["compare", "--resume", str(tmp_path)]):
+        result = subprocess.run([sys.executable, "-m", "gdabench", *args], capture_output=True, text=True, env=dict(os.environ, COLUMNS="300"))
+        assert result.returncode == 2 and result.stderr.startswith("error: ") and result.stderr.count("\n") == 1, result.stderr
 
 
 def test_usage_errors_are_one_line_too():

@@ -201,7 +201,7 @@ def definitions(confidence: float, survivors: int, near_copy: int) -> list[tuple
         ("Mean best-so-far", "area under the best-so-far curve divided by the number of evaluations (the mean best reward over the run): higher means good bodies were found sooner."),
         ("Best-so-far band", f"{ci} bootstrap interval of the median over seeds at each evaluation count, resampling whole runs."),
         ("Reward per generation", "min / mean / max reward of the bodies evaluated in that generation (duplicates and invalid bodies excluded); median over seeds with the inter-quartile range."),
-        ("Wall time", "elapsed time of a run when its last generation was written (the machine may have been shared)."),
+        ("Wall time", "elapsed time of a run when its last generation was written, carried across resumes; a generation cut short by a kill is run again and only that second time counts (the machine may have been shared)."),
         ("Survivors (diversity)", f"the {survivors} best bodies a run had evaluated before the generation (the GDA's and the thesis GA's rule, applied to every designer so that they are comparable)."),
         ("Proposal categories", f"by Hamming distance to the nearest survivor: copy (0), near-copy (1-{near_copy} voxels differ), new materials (same occupied voxels as a survivor, other types), novel shape (the rest)."),
         ("Representative run", "bodies per generation are shown for the seed whose best reward is the median of the designer's seeds."),
