@@ -19,6 +19,7 @@ from .designer import Designer
 from .environment import Controller, Environment
 from .errors import ConfigError, GdabenchError, PluginError, one_line
 from .execution.cache import recipe_identity
+from .execution.spawning import from_script
 from .names import file_name
 from .params import check_params
 from .plugins import Registry, registry
@@ -203,6 +204,12 @@ class Plan:
                     trials.append(TrialSpec(len(trials), name, designer, env, self.controller, seed, repetition, tuple(exp.shape),
                                             exp.population, exp.budget, exp.stop_at_optimum, title, constants, self._contexts[env.label]))
         return trials
+
+    @property
+    def from_script(self) -> bool:
+        """Whether a plugin of this plan is defined in the user's script (``__main__``): worker processes must import it."""
+        factories = [d.factory for d in self.designers] + [e.factory for e in self.envs] + [self.controller] * bool(self.controller)
+        return any(from_script(f.factory) for f in factories if f is not None)
 
     def trial_name(self, env: str, designer: str, seed: int) -> str:
         """The file-system name of a trial (its checkpoint, pending rows and artifacts)."""

@@ -208,6 +208,8 @@ class RunDirectory:
             raise ConfigError(f"cannot create the run directory {run.path}: {exc.strerror or exc}") from None
         run.lock()
         try:
+            if run._wrote_nothing():
+                run._clear()  # a run that failed before its first generation: start over, as the user meant
             if any(entry not in (LOCK, WRITER) for entry in os.listdir(run.path)):
                 raise ConfigError(f"output directory {run.path} already exists and is not empty; choose another --out or --resume it")
             try:
@@ -220,6 +222,25 @@ class RunDirectory:
                 shutil.rmtree(run.path, ignore_errors=True)
             raise
         return run
+
+    def _wrote_nothing(self) -> bool:
+        """Whether this is a run that failed or was interrupted before it wrote a single row."""
+        try:
+            status = self.meta.get("status") if (self.path / RUN_JSON).is_file() else None
+        except RunDirectoryError:
+            return False
+        if status not in ("failed", "interrupted"):
+            return False
+        rows = [self.evaluations_path, *self.path.glob(f"{PENDING}/*/gen-*.parquet"), *self.path.glob(f"{CHECKPOINTS}/*")]
+        return not any(path.exists() for path in rows) and set(os.listdir(self.path)) <= {LOCK, WRITER, RUN_JSON, PENDING, CHECKPOINTS, "artifacts"}
+
+    def _clear(self) -> None:
+        for entry in (RUN_JSON, PENDING, CHECKPOINTS, "artifacts"):
+            path = self.path / entry
+            if path.is_dir():
+                shutil.rmtree(path)
+            else:
+                path.unlink(missing_ok=True)
 
     @classmethod
     def open(cls, path: str | Path) -> RunDirectory:

@@ -26,7 +26,7 @@ from typing import Any, Iterator, Sequence
 from . import faults
 from .config import Experiment, format_seeds
 from .errors import ConfigError, GdabenchError, RunDirectoryError, Terminated, TrialError, one_line
-from .execution import cores
+from .execution import cores, spawning
 from .execution.options import Execution, cpu_count
 from .events import Listeners, PluginHooks, RunListener
 from .execution.trials import InProcess, LocalProcesses, TrialHost, TrialWorkers
@@ -105,7 +105,7 @@ def compare(
         run = RunDirectory.create(out, _new_meta(plan, reg, command, execution.to_json()))
     listener.run_started(run.path, plan, resume)
     try:
-        with _signals_interrupt():
+        with _signals_interrupt(), spawning.scripts_shared(plan.from_script):
             failures = _run_trials(plan, run, execution, listener)
             if failures:
                 run.update_meta(failed_trials=[{"trial": plan.trials[i].title, "name": plan.trials[i].name, "error": e} for i, e in sorted(failures.items())])

@@ -7,6 +7,7 @@ Most tests drive real ``gdabench`` processes (``python -m gdabench``) on the fau
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -21,7 +22,7 @@ from typer.testing import CliRunner
 from gdabench.cli import app
 from gdabench.faults import POINTS
 from gdabench.results import RunDirectory
-from processes import cli, error_lines, table
+from processes import cli, default_sigint, error_lines, table
 
 ARGS = ["compare", "-d", "ga,random", "--env", "faulty", "--budget", "60", "--population", "10", "--seeds", "0,1", "-q", "--no-report"]
 SLOW = {"GDABENCH_FAULTY_DELAY": "0.03"}
@@ -191,6 +192,38 @@ def test_ctrl_c_pressed_again_and_again_gives_one_line(tmp_path, faulty_site):
     assert proc.returncode == 130, err
     assert "Traceback" not in err and [line for line in err.splitlines() if line.strip()][0].startswith("error: interrupted"), err
     assert RunDirectory.open(out).meta["status"] == "interrupted"
+
+
+def spawned_children(pid: int) -> list[str]:
+    """Worker processes multiprocessing spawned from ``pid`` (its resource tracker is not one)."""
+    path = Path(f"/proc/{pid}/task/{pid}/children")
+    spawned = []
+    for child in path.read_text().split() if path.exists() else []:
+        with contextlib.suppress(OSError):  # it may have ended meanwhile
+            if "spawn_main" in Path(f"/proc/{child}/cmdline").read_text(errors="replace"):
+                spawned.append(child)
+    return spawned
+
+
+@pytest.mark.skipif(not Path(f"/proc/{os.getpid()}/task/{os.getpid()}/children").exists(), reason="needs /proc/PID/task/TID/children")
+def test_ctrl_c_in_a_terminal_while_workers_start_gives_one_line(tmp_path, faulty_site):
+    """A terminal's Ctrl-C goes to the whole process group, workers still importing included."""
+    env = dict(os.environ, COLUMNS="200", PYTHONPATH=os.pathsep.join(filter(None, [str(faulty_site), os.environ.get("PYTHONPATH")])), **SLOW)
+    for attempt, pause in enumerate((0.0, 0.25, 0.5, 0.75, 1.0, 1.5)):  # moments of the workers' set-up (imports, unpickling)
+        command = [sys.executable, "-m", "gdabench", *ARGS, "--jobs", "2", "--workers", "2", "--out", str(tmp_path / f"run{attempt}")]
+        proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, start_new_session=True,
+                                preexec_fn=default_sigint)
+        wait_for(lambda: spawned_children(proc.pid), proc, "a worker process")
+        time.sleep(pause)
+        while proc.poll() is None:  # again until it ends: one press may land while a worker is being started (ignored then)
+            os.killpg(proc.pid, signal.SIGINT)
+            try:
+                proc.wait(0.5)
+            except subprocess.TimeoutExpired:
+                pass
+        err = proc.stderr.read()
+        lines = [line for line in err.splitlines() if line.strip()]
+        assert proc.returncode == 130 and "Traceback" not in err and len(lines) == 1 and lines[0].startswith("error: interrupted"), err
 
 
 # -- a full disk --------------------------------------------------------------------------------------

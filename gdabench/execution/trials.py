@@ -27,7 +27,7 @@ from ..errors import GdabenchError, one_line
 from ..plan import TrialSpec
 from ..results import Checkpoint, RunDirectory
 from ..trial import Evaluate, GenerationResult, Trial
-from . import cores
+from . import cores, spawning
 from .cache import EvaluationCache
 from .evaluation import EvalOutcome, EvalTask, instance
 from .executor import Executor
@@ -215,7 +215,7 @@ class LocalProcesses(TrialWorkers):
         host = TrialHost(*self.args)
         held = self._ctx.Value("i", 0, lock=False)  # changed only under the spare count's lock
         process = self._ctx.Process(target=_serve, args=(worker_end, host, os.getpid(), self.spare, held), daemon=False, name="gdabench-trial")
-        process.start()
+        spawning.start(process)
         worker_end.close()
         return _Process(process, driver_end)
 

@@ -36,7 +36,7 @@ import numpy as np
 import torch
 
 from ...errors import GdabenchError
-from ...execution import cores
+from ...execution import cores, spawning
 from .schedule import make_schedule
 from .training import Trainer, TrainJob, TrainResult
 
@@ -171,7 +171,7 @@ class TrainingWorker:
         self._warm = ctx.Value("b", False, lock=False)
         self._process = ctx.Process(target=_serve, args=(child, self._abandoned, self._warm, config), daemon=True, name="gda-training")
         try:
-            self._process.start()
+            spawning.start(self._process)
         except Exception as exc:  # noqa: BLE001 - e.g. inside a daemonic process, which may not have children
             raise WorkerError(f"cannot start the training process ({type(exc).__name__}: {exc})") from None
         finally:
