@@ -12,6 +12,7 @@ from .errors import one_line
 if TYPE_CHECKING:
     import pandas as pd
 
+    from .execution.trials import BodiesDone
     from .plan import Plan, TrialSpec
     from .plugins import Registry
     from .trial import GenerationResult
@@ -25,6 +26,9 @@ class RunListener:
 
     def trial_started(self, spec: TrialSpec) -> None:
         """A trial was handed to a worker (fresh, or to continue from its checkpoint)."""
+
+    def bodies(self, spec: TrialSpec, progress: BodiesDone) -> None:
+        """Bodies of a generation still running were evaluated (not told for trials on Ray)."""
 
     def generation(self, spec: TrialSpec, result: GenerationResult) -> None:
         """A generation's rows were written."""
@@ -50,6 +54,10 @@ class Listeners(RunListener):
     def trial_started(self, *args: Any) -> None:
         for listener in self.listeners:
             listener.trial_started(*args)
+
+    def bodies(self, *args: Any) -> None:
+        for listener in self.listeners:
+            listener.bodies(*args)
 
     def generation(self, *args: Any) -> None:
         for listener in self.listeners:

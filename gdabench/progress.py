@@ -13,6 +13,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskID, TextC
 from .config import Experiment
 from .plan import TrialSpec
 from .events import RunListener
+from .execution.trials import BodiesDone
 from .trial import GenerationResult
 
 
@@ -42,6 +43,13 @@ class ProgressDisplay(RunListener):
         if not self.progress.live.is_started:
             self.progress.start()
         self.lines[spec.index] = self.progress.add_task(escape(f"  {spec.title}"), total=self.budget, completed=self.done.get(spec.key, 0))
+
+    def bodies(self, spec: TrialSpec, progress: BodiesDone) -> None:
+        """A generation's bodies one by one: the bars move while a slow generation (physics) runs."""
+        before = self.done.get(spec.key, 0)
+        self.progress.update(self.lines[spec.index], completed=before + progress.done,
+                             description=escape(f"  {spec.title} gen {progress.generation}: body {progress.done}/{progress.total}"))
+        self.progress.update(self.total, completed=sum(self.done.values()) + progress.done)
 
     def generation(self, spec: TrialSpec, result: GenerationResult) -> None:
         report = result.report

@@ -10,6 +10,7 @@
     <run>/summary.csv           per designer: best reward, evaluations to the optimum, wall time
     <run>/checkpoints/<trial>.pkl
                                 pickled designer state after each generation (for --resume)
+    <run>/outcomes/             every body scored so far, while the run goes (:mod:`.execution.outcomes`)
     <run>/.lock, .writer.json   held by the one process writing the run, and who that is
 
 One process writes a run directory: a run or a resume holds an OS-level lock on it for its
@@ -268,7 +269,8 @@ class RunDirectory:
             raise ConfigError(f"cannot lock the run directory {self.path}: {exc.strerror or exc}") from None
         self._lock = lock
         # temporary files a writer left when it died (the report folder is not the run's to clean)
-        for stale in [*self.path.glob(".*.tmp"), *self.path.glob(f"{PENDING}/*/.*.tmp"), *self.path.glob(f"{CHECKPOINTS}/.*.tmp")]:
+        for stale in [*self.path.glob(".*.tmp"), *self.path.glob(f"{PENDING}/*/.*.tmp"), *self.path.glob(f"{CHECKPOINTS}/.*.tmp"),
+                      *self.path.glob("outcomes/*/.*.tmp")]:
             stale.unlink(missing_ok=True)
         writer = {"pid": os.getpid(), "host": socket.gethostname(), "since": utc_now()}
         try:

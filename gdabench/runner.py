@@ -29,7 +29,8 @@ from .errors import ConfigError, GdabenchError, RunDirectoryError, Terminated, T
 from .execution import cores, spawning
 from .execution.options import Execution, cpu_count
 from .events import Listeners, PluginHooks, RunListener
-from .execution.trials import InProcess, LocalProcesses, TrialHost, TrialWorkers
+from .execution.outcomes import RunOutcomes
+from .execution.trials import BodiesDone, InProcess, LocalProcesses, TrialHost, TrialWorkers
 from .plan import Plan, TrialSpec
 from .plugins import Registry, registry
 from .report.summary import failure_counts, nothing_measured, summarize
@@ -116,6 +117,7 @@ def compare(
             measured_nothing = nothing_measured(failure_counts(frame))  # every trial ran, but some measured nothing
             status = "complete" if measured_nothing is None else "failed"
             run.update_meta(status=status, error=measured_nothing, finished=utc_now(), failed_trials=[])
+            RunOutcomes(run.path).discard()  # every trial is merged: nothing left to resume or share
     except KeyboardInterrupt as exc:
         with _uninterrupted():
             run.update_meta(status="interrupted", error="terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted by the user")
@@ -207,7 +209,8 @@ class _SpareCores:
 
 
 @contextlib.contextmanager
-def _trial_workers(plan: Plan, run: RunDirectory, execution: Execution, trials: int) -> Iterator[tuple[TrialWorkers, int, _SpareCores | None]]:
+def _trial_workers(plan: Plan, run: RunDirectory, execution: Execution, trials: int,
+                   listener: RunListener) -> Iterator[tuple[TrialWorkers, int, _SpareCores | None]]:
     """Where this run's trials go, how many at once, and the cores they may borrow."""
     run_id = run.meta["run_id"]
     if execution.executor == "ray":
@@ -224,8 +227,10 @@ def _trial_workers(plan: Plan, run: RunDirectory, execution: Execution, trials: 
         return
     if spare is not None:  # the trials run here, in this process
         cores.install(spare.count, multiprocessing.Value("i", 0, lock=False))
+    host = TrialHost(run_id, run.path, execution, plan.built)
+    host.progress = lambda bodies: listener.bodies(plan.trials[bodies.trial], bodies)
     try:
-        yield InProcess(TrialHost(run_id, run.path, execution, plan.built)), 1, spare
+        yield InProcess(host), 1, spare
     finally:
         cores.uninstall()
 
@@ -244,7 +249,7 @@ def _run_trials(plan: Plan, run: RunDirectory, execution: Execution, listener: R
     failures: dict[int, str] = {}
     running: dict[Any, TrialSpec] = {}
     idle: list[Any] = []
-    with _trial_workers(plan, run, execution, len(todo)) as (workers, jobs, spare):
+    with _trial_workers(plan, run, execution, len(todo), listener) as (workers, jobs, spare):
         try:
             while todo or running:
                 while todo and len(running) < jobs:
@@ -276,6 +281,9 @@ def _run_trials(plan: Plan, run: RunDirectory, execution: Execution, listener: R
                         listener.trial_finished(spec, answer.value)
                         continue
                     result = answer.value
+                    if isinstance(result, BodiesDone):  # the generation goes on
+                        listener.bodies(spec, result)
+                        continue
                     if isinstance(result, GenerationResult):
                         run.append_generation(spec.name, result.generation, result.rows)
                         faults.point("rows-written")

@@ -14,6 +14,7 @@ import pytest
 import gdabench
 from gdabench.errors import ConfigError, TrialError
 from gdabench.events import RunListener
+from gdabench.execution import Execution
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "python.md"
@@ -136,3 +137,29 @@ if __name__ == "__main__":
 def test_a_designer_defined_in_a_guarded_script_still_reaches_the_workers(tmp_path):
     result = run_script(GUARDED_PLUGIN, tmp_path)
     assert result.returncode == 0 and result.stdout.split() == ["complete", "200"], result.stderr
+
+
+class Bodies(RunListener):
+    """Every in-generation progress report, and each generation's new evaluations, by trial."""
+
+    def __init__(self):
+        self.reports, self.new = {}, {}
+
+    def bodies(self, spec, progress):
+        self.reports.setdefault((spec.title, progress.generation), []).append((progress.done, progress.total))
+
+    def generation(self, spec, result):
+        self.new[(spec.title, result.generation)] = result.report.new_evals
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_progress_is_told_body_by_body_while_a_generation_runs(tmp_path, jobs):
+    listener = Bodies()
+    gdabench.compare(designers="ga,random", env="simple", seeds=[0], budget=50, population=10, out=tmp_path / "r", listener=listener,
+                     execution=Execution(jobs=jobs))
+    assert set(listener.reports) == set(listener.new)
+    for key, reports in listener.reports.items():
+        total, replayed = listener.new[key], reports[0][0]  # bodies another trial of the run had scored come at once
+        assert reports == [(done, total) for done in range(replayed, total + 1)], key  # then one by one
+    if jobs == 1:  # one after the other: random replays ga's generation 0, which it shares
+        assert listener.reports[("random seed 0", 0)] == [(10, 10)]

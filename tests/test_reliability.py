@@ -181,6 +181,33 @@ def test_a_generation_file_missing_under_a_checkpoint_is_refused_naming_it(lost,
     assert_whole(out, reference)
 
 
+def test_a_kill_mid_generation_keeps_the_bodies_it_evaluated(tmp_path, faulty_site, reference):
+    out, log = tmp_path / "run", tmp_path / "evaluated.txt"
+    dead = cli(*ARGS, "--jobs", "1", "--out", str(out), site=faulty_site,
+               env={"GDABENCH_FAULT": "outcome-stored:15", "GDABENCH_FAULTY_LOG": str(log)})  # ga seed 0, generation 1, 5th body
+    assert dead.returncode == -signal.SIGKILL, dead.stderr
+    assert len(RunDirectory.open(out).load_evaluations()) == 10  # generation 1 was not written
+    resumed = cli("compare", "--resume", str(out), "-q", "--no-report", site=faulty_site, env={"GDABENCH_FAULTY_LOG": str(log)})
+    assert resumed.returncode == 0, resumed.stderr
+    assert_whole(out, reference)
+    evaluated = log.read_text().splitlines()
+    assert len(evaluated) == len(set(evaluated))  # the 5 bodies scored before the kill were not scored again
+    assert not (out / "outcomes").exists()
+
+
+def test_trials_that_propose_the_same_body_score_it_once(tmp_path, faulty_site, reference):
+    """ga and random share generation 0 under a seed (Evolution Gym's sampler): the run trains it once."""
+    out, log = tmp_path / "run", tmp_path / "evaluated.txt"
+    result = cli(*ARGS, "--jobs", "1", "--out", str(out), site=faulty_site, env={"GDABENCH_FAULTY_LOG": str(log)})
+    assert result.returncode == 0, result.stderr
+    assert_whole(out, reference)  # the replayed rows are the computed ones: the table is the same
+    rows = table(out)
+    first = rows[(rows["generation"] == 0) & (rows["seed"] == 0)]
+    assert set(first[first["designer"] == "ga"]["body"]) == set(first[first["designer"] == "random"]["body"])
+    evaluated = log.read_text().splitlines()
+    assert len(evaluated) == len(set(evaluated)) == rows[rows["status"] == "ok"]["body_hash"].groupby(rows["seed"]).nunique().sum()
+
+
 def test_ctrl_c_pressed_again_and_again_gives_one_line(tmp_path, faulty_site):
     out = tmp_path / "run"
     proc = cli(*ARGS, "--out", str(out), site=faulty_site, env=SLOW, background=True)
