@@ -30,7 +30,7 @@ from .loggers import make_logger
 from .plugins import KINDS, registry
 from .progress import ProgressDisplay
 from .report.diversity import NEAR_COPY, SURVIVORS
-from .report.summary import failure_counts, summarize, thresholds
+from .report.summary import failure_counts, nothing_measured, summarize, thresholds
 from .report.tables import summary_cells
 from .results import RunDirectory
 from .runner import compare as run_compare, default_out_dir, with_added_seeds
@@ -328,6 +328,13 @@ RUN_OPTIONS: dict[str, Any] = {
 }
 
 
+def _typed(ctx: typer.Context, names: list[str]) -> frozenset[str]:
+    """The options among ``names`` the user typed (an option left at its default is not one of them)."""
+    return frozenset(
+        n for n in names if getattr(ctx.get_parameter_source(n), "name", "DEFAULT") not in ("DEFAULT", "DEFAULT_MAP")
+    )
+
+
 def with_run_options(command: Callable[..., None]) -> Callable[..., None]:
     """Give ``command(..., options: RunOptions)`` the shared options as typer parameters."""
     own = [p for p in inspect.signature(command, eval_str=True).parameters.values() if p.name != "options"]
@@ -345,12 +352,7 @@ def with_run_options(command: Callable[..., None]) -> Callable[..., None]:
     context = inspect.Parameter("ctx", inspect.Parameter.KEYWORD_ONLY, annotation=typer.Context)
 
     def wrapper(ctx: typer.Context, **kwargs: Any) -> None:
-        given = frozenset(
-            n
-            for n in names
-            if getattr(ctx.get_parameter_source(n), "name", "DEFAULT") not in ("DEFAULT", "DEFAULT_MAP")
-        )
-        options = RunOptions(**{n: kwargs.pop(n) for n in names}, explicit=given)
+        options = RunOptions(**{n: kwargs.pop(n) for n in names}, explicit=_typed(ctx, names))
         command(**kwargs, options=options)
 
     wrapper.__name__, wrapper.__doc__ = command.__name__, command.__doc__
@@ -442,14 +444,9 @@ def _report_failures(run: RunDirectory) -> None:
         err_console.print(
             escape(f"note: {row.designer} on {row.env}: {row.line}"), style="yellow", highlight=False, soft_wrap=True
         )
-    hopeless = counts[counts["all_failed_trials"] > 0]
-    if len(hopeless):
-        first = hopeless.iloc[0]
-        raise _fail(
-            f"every evaluation failed in {int(hopeless['all_failed_trials'].sum())} trial(s), e.g. "
-            f"{first['designer']} on {first['env']}",
-            1,
-        )
+    line = nothing_measured(counts)
+    if line is not None:
+        raise _fail(line, 1)
 
 
 def _print_table(title: str, headers: list[str], rows: list[list[str]]) -> None:
@@ -510,6 +507,7 @@ def run(
 
 @app.command()
 def evaluate(
+    ctx: typer.Context,
     body: Annotated[
         str, typer.Argument(help="Body in text form, rows separated by '/', e.g. 44444/44444/44444/44444/44444.")
     ],
@@ -529,8 +527,9 @@ def evaluate(
 
         parsed = Body.from_text(body)
         check_seed(seed)
+        typed = _typed(ctx, ["env", "controller", "env_param", "controller_param"])
         options = RunOptions(env=env, controller=controller, env_param=env_param, controller_param=controller_param,
-                             shape=f"{parsed.shape[0]}x{parsed.shape[1]}", population=1, budget=1)
+                             shape=f"{parsed.shape[0]}x{parsed.shape[1]}", population=1, budget=1, explicit=typed)
         plan = Plan.resolve(options.experiment("random", ExperimentFile(None)), registry(), designers=False)
         scorer, _ = plan.scorers()
         reason = scorer.invalid_reason(parsed)

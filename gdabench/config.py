@@ -67,7 +67,10 @@ def split_top_level(text: str, sep: str = ",") -> list[str]:
     if depth != 0:
         raise ConfigError(f"malformed list {text!r}: unbalanced '['")
     parts.append("".join(current))
-    return [p.strip() for p in parts if p.strip()]
+    parts = [p.strip() for p in parts]
+    if "" in parts and any(parts):
+        raise ConfigError(f"malformed list {text!r}: an empty item (a {sep!r} too many?)")
+    return [p for p in parts if p]
 
 
 @dataclass(frozen=True)
@@ -246,7 +249,7 @@ class Experiment:
             raise ConfigError(f"{where}: expected a table, got {type(data).__name__}")
         try:
             envs = data["envs"] if "envs" in data else [data["env"]]
-            return cls(
+            experiment = cls(
                 designers=tuple(PluginChoice.from_json(d, f"{where}.designers") for d in data["designers"]),
                 envs=tuple(PluginChoice.from_json(e, f"{where}.envs") for e in envs),
                 controller=None
@@ -262,3 +265,8 @@ class Experiment:
             raise ConfigError(f"{where}: missing {exc.args[0]!r}") from None
         except TypeError as exc:
             raise ConfigError(f"{where}: malformed ({exc})") from None
+        try:
+            experiment.check()
+        except ConfigError as exc:
+            raise ConfigError(f"{where}: {exc}") from None
+        return experiment

@@ -12,6 +12,7 @@ from .errors import one_line
 if TYPE_CHECKING:
     import pandas as pd
 
+    from .execution.trials import BodiesDone
     from .plan import Plan, TrialSpec
     from .plugins import Registry
     from .trial import GenerationResult
@@ -26,6 +27,9 @@ class RunListener:
     def trial_started(self, spec: TrialSpec) -> None:
         """A trial was handed to a worker (fresh, or to continue from its checkpoint)."""
 
+    def bodies(self, spec: TrialSpec, progress: BodiesDone) -> None:
+        """Bodies of a generation still running were evaluated (not told for trials on Ray)."""
+
     def generation(self, spec: TrialSpec, result: GenerationResult) -> None:
         """A generation's rows were written."""
 
@@ -33,7 +37,8 @@ class RunListener:
         """A trial ended: its rows are merged (``error`` None) or it failed with ``error``."""
 
     def run_finished(self, run_dir: Path, status: str, summary: pd.DataFrame | None) -> None:
-        """The run ended: ``complete`` (with its summary table), ``failed`` or ``interrupted``."""
+        """The run ended: ``complete`` (with its summary table), ``failed`` (with the summary when every trial
+        ran but one measured nothing: its every evaluation failed) or ``interrupted``."""
 
 
 class Listeners(RunListener):
@@ -49,6 +54,10 @@ class Listeners(RunListener):
     def trial_started(self, *args: Any) -> None:
         for listener in self.listeners:
             listener.trial_started(*args)
+
+    def bodies(self, *args: Any) -> None:
+        for listener in self.listeners:
+            listener.bodies(*args)
 
     def generation(self, *args: Any) -> None:
         for listener in self.listeners:

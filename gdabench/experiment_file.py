@@ -64,9 +64,11 @@ def load(path: str | Path) -> ExperimentFile:
     """Read an experiment file (``.toml``) or a run's ``run.json``."""
     path = Path(path)
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise ConfigError(f"cannot read the experiment file {path}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"the experiment file {path} is not UTF-8 text ({exc.reason} at byte {exc.start})") from None
     if path.suffix == ".json":
         try:
             data = json.loads(text)

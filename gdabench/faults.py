@@ -15,7 +15,8 @@ _SPEC = os.environ.get("GDABENCH_FAULT", "")
 _NAME, _, _COUNT = _SPEC.partition(":")
 _reached = 0
 
-#: the points, in the order a generation and then a trial are finished
+#: the points, in the order a generation and then a trial are finished (``output-staged``, where a report
+#: or an export is written but not yet in place, is not one of them)
 POINTS = ("rows-written", "checkpoint-written", "trial-merged", "pending-removed", "checkpoint-removed")
 
 

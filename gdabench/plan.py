@@ -9,7 +9,6 @@ trials build them, for ``evaluate``, ``replay`` and the report.
 from __future__ import annotations
 
 import json
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, cast
@@ -20,6 +19,8 @@ from .designer import Designer
 from .environment import Controller, Environment
 from .errors import ConfigError, GdabenchError, PluginError, one_line
 from .execution.cache import recipe_identity
+from .execution.spawning import from_script
+from .names import file_name
 from .params import check_params
 from .plugins import Registry, registry
 from .results import RunDirectory
@@ -32,11 +33,6 @@ HARNESS_ENV_ARGS = ("shape",)
 
 def _json(params: Mapping[str, Any]) -> str:
     return json.dumps(dict(params), sort_keys=True, default=str)
-
-
-def file_name(text: str) -> str:
-    """``text`` made safe as (part of) a file name."""
-    return re.sub(r"[^A-Za-z0-9_.=-]+", "_", text)
 
 
 def _build(kind: str, label: str, recipe: Factory, **harness: Any) -> Any:
@@ -267,6 +263,16 @@ class Plan:
                         )
                     )
         return trials
+
+    @property
+    def from_script(self) -> bool:
+        """Whether a plugin of this plan is defined in the user's script (``__main__``): workers must import it."""
+        factories = (
+            [d.factory for d in self.designers]
+            + [e.factory for e in self.envs]
+            + [self.controller] * bool(self.controller)
+        )
+        return any(from_script(f.factory) for f in factories if f is not None)
 
     def trial_name(self, env: str, designer: str, seed: int) -> str:
         """The file-system name of a trial (its checkpoint, pending rows and artifacts)."""

@@ -20,6 +20,7 @@ from rich.progress import (
 
 from .config import Experiment
 from .events import RunListener
+from .execution.trials import BodiesDone
 from .plan import TrialSpec
 from .trial import GenerationResult
 
@@ -43,7 +44,8 @@ class ProgressDisplay(RunListener):
         return self
 
     def __exit__(self, *exc: object) -> None:
-        self.progress.stop()
+        if self.progress.live.is_started:  # stopping a display never shown prints an empty line
+            self.progress.stop()
 
     def trial_started(self, spec: TrialSpec) -> None:
         if not self.progress.live.is_started:
@@ -51,6 +53,16 @@ class ProgressDisplay(RunListener):
         self.lines[spec.index] = self.progress.add_task(
             escape(f"  {spec.title}"), total=self.budget, completed=self.done.get(spec.key, 0)
         )
+
+    def bodies(self, spec: TrialSpec, progress: BodiesDone) -> None:
+        """A generation's bodies one by one: the bars move while a slow generation (physics) runs."""
+        before = self.done.get(spec.key, 0)
+        self.progress.update(
+            self.lines[spec.index],
+            completed=before + progress.done,
+            description=escape(f"  {spec.title} gen {progress.generation}: body {progress.done}/{progress.total}"),
+        )
+        self.progress.update(self.total, completed=sum(self.done.values()) + progress.done)
 
     def generation(self, spec: TrialSpec, result: GenerationResult) -> None:
         report = result.report

@@ -10,6 +10,7 @@
     <run>/summary.csv           per designer: best reward, evaluations to the optimum, wall time
     <run>/checkpoints/<trial>.pkl
                                 pickled designer state after each generation (for --resume)
+    <run>/outcomes/             every body scored so far, while the run goes (:mod:`.execution.outcomes`)
     <run>/.lock, .writer.json   held by the one process writing the run, and who that is
 
 One process writes a run directory: a run or a resume holds an OS-level lock on it for its
@@ -42,7 +43,7 @@ import pandas as pd
 from filelock import FileLock, Timeout
 
 from . import faults
-from .errors import ConfigError, RunDirectoryError, RunLockedError
+from .errors import ConfigError, GdabenchError, RunDirectoryError, RunFailure, RunLockedError
 
 FORMAT = "gdabench-run/1"
 RUN_JSON = "run.json"
@@ -136,6 +137,14 @@ def no_space(exc: BaseException) -> bool:
     return isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT)
 
 
+def write_error(exc: OSError, where: Path) -> GdabenchError:
+    """One line for a write under ``where`` that the system refused: a full disk is a failed run
+    (exit 1, wherever it happens), anything else (a read-only or odd place the user chose) an input error."""
+    if no_space(exc):
+        return RunFailure(f"no space left on the device of {where}")
+    return ConfigError(f"cannot write to {where}: {exc.strerror or exc}")
+
+
 def versions(distributions: Mapping[str, str]) -> dict[str, Any]:
     """Versions of Python, the core libraries and every plugin distribution."""
 
@@ -201,20 +210,57 @@ class RunDirectory:
             if not run.path.is_dir():
                 raise ConfigError(f"output path {run.path} exists and is not a directory") from None
         except OSError as exc:
+            if no_space(exc):
+                raise write_error(exc, run.path) from None
             raise ConfigError(f"cannot create the run directory {run.path}: {exc.strerror or exc}") from None
         run.lock()
         try:
+            if run._wrote_nothing():
+                run._clear()  # a run that failed before its first generation: start over, as the user meant
             if any(entry not in (LOCK, WRITER) for entry in os.listdir(run.path)):
                 raise ConfigError(
                     f"output directory {run.path} already exists and is not empty; choose another --out or --resume it"
                 )
-            run.write_meta({"format": FORMAT, **meta})
+            try:
+                run.write_meta({"format": FORMAT, **meta})
+            except OSError as exc:
+                raise write_error(exc, run.path) from None
         except BaseException:
             run.unlock()
             if made:
                 shutil.rmtree(run.path, ignore_errors=True)
             raise
         return run
+
+    def _wrote_nothing(self) -> bool:
+        """Whether this is a run that failed or was interrupted before it wrote a single row."""
+        try:
+            status = self.meta.get("status") if (self.path / RUN_JSON).is_file() else None
+        except RunDirectoryError:
+            return False
+        if status not in ("failed", "interrupted"):
+            return False
+        rows = [
+            self.evaluations_path,
+            *self.path.glob(f"{PENDING}/*/gen-*.parquet"),
+            *self.path.glob(f"{CHECKPOINTS}/*"),
+        ]
+        return not any(path.exists() for path in rows) and set(os.listdir(self.path)) <= {
+            LOCK,
+            WRITER,
+            RUN_JSON,
+            PENDING,
+            CHECKPOINTS,
+            "artifacts",
+        }
+
+    def _clear(self) -> None:
+        for entry in (RUN_JSON, PENDING, CHECKPOINTS, "artifacts"):
+            path = self.path / entry
+            if path.is_dir():
+                shutil.rmtree(path)
+            else:
+                path.unlink(missing_ok=True)
 
     @classmethod
     def open(cls, path: str | Path) -> RunDirectory:
@@ -248,6 +294,7 @@ class RunDirectory:
             *self.path.glob(".*.tmp"),
             *self.path.glob(f"{PENDING}/*/.*.tmp"),
             *self.path.glob(f"{CHECKPOINTS}/.*.tmp"),
+            *self.path.glob("outcomes/*/.*.tmp"),
         ]:
             stale.unlink(missing_ok=True)
         writer = {"pid": os.getpid(), "host": socket.gethostname(), "since": utc_now()}
@@ -323,11 +370,23 @@ class RunDirectory:
             return None
 
     def pending_rows(self, name: str, before_generation: int | None = None) -> pd.DataFrame | None:
-        """Rows of an unfinished trial; generation files from ``before_generation`` on are deleted."""
+        """Rows of an unfinished trial; generation files from ``before_generation`` on are deleted.
+
+        With ``before_generation`` (the trial's checkpoint), every generation before it must have its
+        file: a gap would silently change the table, so it is refused naming the first missing file.
+        """
         folder = self.path / PENDING / name
+        files = {int(file.stem[4:]): file for file in folder.glob("gen-*.parquet")}
+        if before_generation is not None:
+            missing = next((g for g in range(before_generation) if g not in files), None)
+            if missing is not None:
+                raise RunDirectoryError(
+                    f"{folder / f'gen-{missing:06d}.parquet'} is missing, but the trial's checkpoint is at generation "
+                    f"{before_generation}: restore the file, or delete {folder} and {self.checkpoint_path(name)} "
+                    "to run this trial again from its start")
         frames = []
-        for file in sorted(folder.glob("gen-*.parquet")):
-            if before_generation is not None and int(file.stem[4:]) >= before_generation:
+        for generation, file in sorted(files.items()):
+            if before_generation is not None and generation >= before_generation:
                 file.unlink()
             else:
                 frames.append(self._read(file))

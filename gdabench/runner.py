@@ -25,15 +25,16 @@ from typing import Any, Iterator, Sequence
 
 from . import faults
 from .config import Experiment, format_seeds
-from .errors import ConfigError, GdabenchError, RunDirectoryError, RunFailure, Terminated, TrialError, one_line
+from .errors import ConfigError, GdabenchError, RunDirectoryError, Terminated, TrialError, one_line
 from .events import Listeners, PluginHooks, RunListener
-from .execution import cores
+from .execution import cores, spawning
 from .execution.options import Execution, cpu_count
-from .execution.trials import InProcess, LocalProcesses, TrialHost, TrialWorkers
+from .execution.outcomes import RunOutcomes
+from .execution.trials import BodiesDone, InProcess, LocalProcesses, TrialHost, TrialWorkers
 from .plan import Plan, TrialSpec
 from .plugins import Registry, registry
-from .report.summary import summarize
-from .results import SUMMARY, Checkpoint, RunDirectory, no_space, platform_info, utc_now, versions
+from .report.summary import failure_counts, nothing_measured, summarize
+from .results import SUMMARY, Checkpoint, RunDirectory, no_space, platform_info, utc_now, versions, write_error
 from .trial import GenerationResult
 
 
@@ -101,6 +102,10 @@ def compare(
         stored = Experiment.from_json(meta["config"], f"{run.path / 'run.json'}: config")
         experiment = with_added_seeds(stored, experiment)
         if meta.get("status") == "complete" and experiment == stored:
+            if not run.evaluations_path.exists():
+                raise RunDirectoryError(
+                    f"run {run.path} is complete but its table {run.evaluations_path} is missing; restore it"
+                )
             return run
         if execution.timeout is None and (meta.get("execution") or {}).get("timeout"):
             execution = Execution(**{**execution.to_json(), "timeout": meta["execution"]["timeout"]})
@@ -118,7 +123,7 @@ def compare(
         run = RunDirectory.create(out, _new_meta(plan, reg, command, execution.to_json()))
     listener.run_started(run.path, plan, resume)
     try:
-        with _signals_interrupt():
+        with _signals_interrupt(), spawning.scripts_shared(plan.from_script):
             failures = _run_trials(plan, run, execution, listener)
             if failures:
                 run.update_meta(
@@ -128,9 +133,13 @@ def compare(
                     ]
                 )
                 raise TrialError(_failure_line(plan, failures))
-            summary = summarize(run.load_evaluations(), {e.label: e.optimum for e in plan.envs})
+            frame = run.load_evaluations()
+            summary = summarize(frame, {e.label: e.optimum for e in plan.envs})
             summary.to_csv(run.path / SUMMARY, index=False)
-            run.update_meta(status="complete", finished=utc_now(), failed_trials=[])
+            measured_nothing = nothing_measured(failure_counts(frame))  # every trial ran, but some measured nothing
+            status = "complete" if measured_nothing is None else "failed"
+            run.update_meta(status=status, error=measured_nothing, finished=utc_now(), failed_trials=[])
+            RunOutcomes(run.path).discard()  # every trial is merged: nothing left to resume or share
     except KeyboardInterrupt as exc:
         with _uninterrupted():
             run.update_meta(
@@ -140,7 +149,7 @@ def compare(
             listener.run_finished(run.path, "interrupted", None)
         raise
     except BaseException as exc:
-        error = RunFailure(f"no space left on the device of {run.path}") if no_space(exc) else exc
+        error = write_error(exc, run.path) if isinstance(exc, OSError) and no_space(exc) else exc
         run.update_meta(status="failed", error=str(error) if isinstance(error, GdabenchError) else one_line(error))
         listener.run_finished(run.path, "failed", None)
         if error is not exc:
@@ -148,7 +157,7 @@ def compare(
         raise
     finally:
         run.unlock()
-    listener.run_finished(run.path, "complete", summary)
+    listener.run_finished(run.path, status, summary)
     return run
 
 
@@ -232,9 +241,8 @@ class _SpareCores:
 
 
 @contextlib.contextmanager
-def _trial_workers(
-    plan: Plan, run: RunDirectory, execution: Execution, trials: int
-) -> Iterator[tuple[TrialWorkers, int, _SpareCores | None]]:
+def _trial_workers(plan: Plan, run: RunDirectory, execution: Execution, trials: int,
+                   listener: RunListener) -> Iterator[tuple[TrialWorkers, int, _SpareCores | None]]:
     """Where this run's trials go, how many at once, and the cores they may borrow."""
     run_id = run.meta["run_id"]
     if execution.executor == "ray":
@@ -255,8 +263,10 @@ def _trial_workers(
         return
     if spare is not None:  # the trials run here, in this process
         cores.install(spare.count, multiprocessing.Value("i", 0, lock=False))
+    host = TrialHost(run_id, run.path, execution, plan.built)
+    host.progress = lambda bodies: listener.bodies(plan.trials[bodies.trial], bodies)
     try:
-        yield InProcess(TrialHost(run_id, run.path, execution, plan.built)), 1, spare
+        yield InProcess(host), 1, spare
     finally:
         cores.uninstall()
 
@@ -275,20 +285,20 @@ def _run_trials(plan: Plan, run: RunDirectory, execution: Execution, listener: R
     failures: dict[int, str] = {}
     running: dict[Any, TrialSpec] = {}
     idle: list[Any] = []
-    with _trial_workers(plan, run, execution, len(todo)) as (workers, jobs, spare):
+    with _trial_workers(plan, run, execution, len(todo), listener) as (workers, jobs, spare):
         try:
             while todo or running:
                 while todo and len(running) < jobs:
                     spec = todo.popleft()
                     try:
                         checkpoint = _load_checkpoint(run, spec)
+                        done = run.pending_rows(
+                            spec.name, before_generation=checkpoint.next_generation if checkpoint else 0
+                        )
                     except RunDirectoryError as exc:
                         failures[spec.index] = str(exc)
                         listener.trial_finished(spec, str(exc))
                         continue
-                    done = run.pending_rows(
-                        spec.name, before_generation=checkpoint.next_generation if checkpoint else 0
-                    )
                     worker = idle.pop() if idle else workers.start()
                     workers.call(worker, "open", spec, checkpoint, done)
                     running[worker] = spec
@@ -309,6 +319,9 @@ def _run_trials(plan: Plan, run: RunDirectory, execution: Execution, listener: R
                         listener.trial_finished(spec, answer.value)
                         continue
                     result = answer.value
+                    if isinstance(result, BodiesDone):  # the generation goes on
+                        listener.bodies(spec, result)
+                        continue
                     if isinstance(result, GenerationResult):
                         run.append_generation(spec.name, result.generation, result.rows)
                         faults.point("rows-written")

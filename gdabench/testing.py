@@ -8,15 +8,17 @@ Call them from your own tests::
     def test_my_designer_conforms():
         check_designer(MyDesigner, params={"temperature": 0.5})
 
-Each check raises :class:`ConformanceError` (an ``AssertionError``) naming the broken rule.
+Each check raises :class:`ConformanceError` (an ``AssertionError``) naming the broken rule; an
+exception the plugin raises is one too, naming the call (the original is chained for the traceback).
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 import pickle
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Iterator, Mapping
 
 import numpy as np
 
@@ -24,6 +26,7 @@ from .body import Body, as_body, random_body
 from .designer import Designer
 from .environment import Controller, Environment, Evaluation
 from .envs.simple import SumOfVoxels
+from .errors import one_line
 from .seeding import designer_seed
 
 
@@ -39,19 +42,31 @@ def _require(condition: bool, message: str) -> None:
 def _reward(result: float | Evaluation) -> float:
     """What ``Environment.evaluate`` scored: its reward, with or without extras."""
     return float(result.reward if isinstance(result, Evaluation) else result)
+@contextlib.contextmanager
+def _plugin(call: str) -> Iterator[None]:
+    """A plugin that raises in ``call`` fails the check like a broken rule, so a test report says which call."""
+    try:
+        yield
+    except ConformanceError:
+        raise
+    except Exception as exc:
+        raise ConformanceError(f"{call} raised {one_line(exc)}") from exc
 
 
 def _drive(designer: Designer, env: Environment, generations: int, seen: set[str]) -> list[list[str]]:
     """ask/tell like the harness; checks every generation; returns the body texts per generation."""
     texts = []
     for g in range(generations):
-        proposed = designer.ask()
+        with _plugin(f"generation {g}: ask()"):
+            proposed = designer.ask()
         _require(
             isinstance(proposed, (list, tuple)) and len(proposed) > 0,
             f"generation {g}: ask() must return a non-empty list of bodies",
         )
-        bodies = [as_body(b) for b in proposed]
-        info = designer.proposal_info()
+        with _plugin(f"generation {g}: reading the bodies ask() returned"):
+            bodies = [as_body(b) for b in proposed]
+        with _plugin(f"generation {g}: proposal_info()"):
+            info = designer.proposal_info()
         _require(
             not info or len(info) == len(bodies),
             f"generation {g}: proposal_info() has {len(info)} entries for {len(bodies)} bodies",
@@ -71,7 +86,8 @@ def _drive(designer: Designer, env: Environment, generations: int, seen: set[str
             seen.add(b.hash)
         rewards = [_reward(env.evaluate(b, seed=0)) for b in bodies]
         rewards[0] = math.nan  # designers must cope with bodies that could not be scored
-        designer.tell(bodies, rewards)
+        with _plugin(f"generation {g}: tell()"):
+            designer.tell(bodies, rewards)
         texts.append([b.text for b in bodies])
     return texts
 
@@ -90,9 +106,10 @@ def check_designer(
     env = env or SumOfVoxels(shape=shape)
 
     def new(seed: int) -> Designer:
-        designer = factory(
-            shape=shape, population=population, budget=budget, seed=designer_seed(seed), **dict(params or {})
-        )
+        with _plugin("the designer's constructor"):
+            designer = factory(
+                shape=shape, population=population, budget=budget, seed=designer_seed(seed), **dict(params or {})
+            )
         _require(isinstance(designer, Designer), f"factory returned {type(designer).__name__}, not a gdabench.Designer")
         return designer
 
@@ -106,7 +123,8 @@ def check_designer(
     seen: set[str] = set()
     original = new(1)
     _drive(original, env, half, seen)
-    restored = pickle.loads(pickle.dumps(original))
+    with _plugin("pickling the designer"):
+        restored = pickle.loads(pickle.dumps(original))
     after_restore = _drive(restored, env, generations - half, set(seen))
     _require(
         after_restore == _drive(original, env, generations - half, set(seen)),
@@ -124,7 +142,8 @@ def check_environment(
     seed: int = 0,
 ) -> None:
     """Finite rewards for valid bodies, invalid bodies refused, determinism, optimum not exceeded."""
-    env = factory(shape=shape, **dict(params or {}))
+    with _plugin("the environment's constructor"):
+        env = factory(shape=shape, **dict(params or {}))
     _require(isinstance(env, Environment), f"factory returned {type(env).__name__}, not a gdabench.Environment")
     _require(
         not env.requires_controller or controller is not None, "this environment needs a controller: pass controller="
@@ -134,7 +153,8 @@ def check_environment(
     for _ in range(bodies):
         body = random_body(rng, shape)
         _require(env.invalid_reason(body) is None, f"a valid body {body.text} was refused: {env.invalid_reason(body)}")
-        result = env.evaluate(body, seed=seed, controller=controller)
+        with _plugin(f"evaluate({body.text})"):
+            result = env.evaluate(body, seed=seed, controller=controller)
         reward = _reward(result)
         _require(math.isfinite(reward), f"{body.text} scored {reward}")
         if env.deterministic:
@@ -161,13 +181,16 @@ def check_controller(
     workdir: Path | None = None,
 ) -> Evaluation:
     """An Evaluation with a finite reward, identical for the same seed; returns it."""
-    controller = factory(**dict(params or {}))
+    with _plugin("the controller's constructor"):
+        controller = factory(**dict(params or {}))
     _require(
         isinstance(controller, Controller), f"factory returned {type(controller).__name__}, not a gdabench.Controller"
     )
-    first = controller.evaluate(make_env, seed=seed, workdir=workdir)
+    with _plugin("evaluate()"):
+        first = controller.evaluate(make_env, seed=seed, workdir=workdir)
     _require(isinstance(first, Evaluation), f"evaluate() returned {type(first).__name__}, not a gdabench.Evaluation")
     _require(math.isfinite(first.reward), f"controller reached a non-finite reward {first.reward}")
-    second = factory(**dict(params or {})).evaluate(make_env, seed=seed, workdir=workdir)
+    with _plugin("evaluate(), a second time"):
+        second = factory(**dict(params or {})).evaluate(make_env, seed=seed, workdir=workdir)
     _require(second.reward == first.reward, f"the same seed gave rewards {first.reward} and {second.reward}")
     return first

@@ -97,6 +97,20 @@ def test_evaluate_scores_one_body():
     assert result.exit_code == 0 and result.stdout.strip() == "100"
 
 
+def test_evaluate_scores_a_physics_body_with_the_controller_as_a_run_does(tmp_path):
+    controller = ("--controller", "open-loop", "-C", "trials=1", "-C", "period=40")
+    run = invoke("compare", "-d", "random", "--env", "walker", *controller, "--population", "2", "--budget", "2",
+                 "--out", str(tmp_path / "run"), "-q", "--no-report")
+    assert run.exit_code == 0, run.stderr
+    rows = pd.read_parquet(tmp_path / "run" / "evaluations.parquet")
+    for body, reward in zip(rows["body"], rows["reward"]):
+        result = invoke("evaluate", body, "--env", "walker", *controller)
+        assert result.exit_code == 0, result.stderr
+        assert float(result.stdout) == pytest.approx(reward, rel=1e-5)
+    other = invoke("evaluate", rows["body"][0], "--env", "walker", "--controller", "open-loop", "-C", "trials=1", "-C", "period=10")
+    assert float(other.stdout) != pytest.approx(rows["reward"][0], rel=1e-5)  # -C reaches the controller
+
+
 @pytest.mark.parametrize(
     "args, fragment",
     [
@@ -110,6 +124,9 @@ def test_evaluate_scores_one_body():
         (["compare", "--designers", "ga", "--controller", "ppo"], "takes no controller"),
         (["evaluate", "44444/4444x"], "malformed body text"),
         (["evaluate", "11111/11111"], "is invalid for 'simple': no actuator"),
+        (["evaluate", "44444/44444", "--controller", "open-loop"], "'simple' scores bodies directly and takes no controller"),
+        (["evaluate", "44444/44444", "--env", "walker"], "'walker' needs a controller"),
+        (["evaluate", "44444/44444", "--env", "walker", "-C", "period=30"], "--controller-param given without --controller"),
         (["compare"], "give --designers"),
     ],
 )

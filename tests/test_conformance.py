@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -40,10 +42,30 @@ class Forgetful(RandomSearch):
         return state
 
 
+class Crashes(RandomSearch):
+    def tell(self, bodies, rewards):
+        raise KeyError("best")
+
+
+class Unpicklable(RandomSearch):
+    def __reduce__(self):
+        raise TypeError("cannot pickle 'generator' object")
+
+
 @pytest.mark.parametrize(
     "factory, fragment",
-    [(Unseeded, "same seed gave different bodies"), (Repeater, "again"), (Forgetful, "restored from pickle continued differently")],
+    [(Unseeded, "same seed gave different bodies"), (Repeater, "again"), (Forgetful, "restored from pickle continued differently"),
+     (Crashes, "generation 0: tell() raised KeyError: 'best'"), (Unpicklable, "pickling the designer raised TypeError: cannot pickle")],
 )
 def test_broken_designers_are_caught(factory, fragment):
-    with pytest.raises(ConformanceError, match=fragment):
+    with pytest.raises(ConformanceError, match=re.escape(fragment)):
         check_designer(factory)
+
+
+def test_an_environment_that_raises_fails_the_check_naming_the_call():
+    class Exploding(SumOfVoxels):
+        def evaluate(self, body, seed=0, controller=None):
+            raise RuntimeError("simulator exploded")
+
+    with pytest.raises(ConformanceError, match=r"evaluate\(\d+(/\d+)+\) raised RuntimeError: simulator exploded"):
+        check_environment(Exploding)

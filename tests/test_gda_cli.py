@@ -30,3 +30,14 @@ def test_gda_parameter_errors_are_one_line(tmp_path):
     result = CliRunner().invoke(app, ["compare", "--designers", "gda[sampler=euler]", "--out", str(tmp_path / "x"), "-q"])
     assert result.exit_code == 2
     assert "unknown sampler" in result.output and "Traceback" not in result.output
+
+
+def test_gda_runs_on_bodies_smaller_than_3x3(tmp_path):
+    """The docs once said gda needs bodies of at least 3x3; it runs on smaller ones, down to one row."""
+    for shape in ("2x2", "1x5"):
+        out = tmp_path / shape
+        result = CliRunner().invoke(app, ["run", "gda[epochs=2,steps=5]", "--shape", shape, "--budget", "20", "--population", "10",
+                                          "--out", str(out), "-q", "--no-report"])
+        assert result.exit_code == 0, result.output
+        rows = pd.read_parquet(out / "evaluations.parquet")
+        assert rows["n_evals"].max() == 20 and (rows.loc[rows["generation"] > 0, "source"] == "sampled").any()

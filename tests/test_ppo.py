@@ -13,6 +13,7 @@ import sys
 
 import gymnasium
 import numpy as np
+import pandas as pd
 import pytest
 import torch
 from torch._dynamo.utils import counters
@@ -274,3 +275,17 @@ def test_compare_with_ppo_saves_policies_and_replay_uses_them(tmp_path):
     assert "reward" in replayed.stdout and gif.read_bytes()[:3] == b"GIF"
     missing = CliRunner().invoke(app, ["replay", str(run), "--body", "ffffffffffff"])
     assert missing.exit_code == 2 and "no scored body with hash" in missing.stderr
+
+
+def test_a_body_two_trials_share_is_trained_once_and_both_keep_its_policy(tmp_path):
+    run = tmp_path / "run"
+    args = ["compare", "--designers", "random,ga[survivors=1]", "--env", "walker", "--controller", "ppo", "-C", "timesteps=128",
+            "--budget", "2", "--population", "2", "--jobs", "1"]
+    result = CliRunner().invoke(app, [*args, "--out", str(run), "-q", "--no-report"], catch_exceptions=False)
+    assert result.exit_code == 0, result.stderr
+    rows = pd.read_parquet(run / "evaluations.parquet")
+    by_designer = rows.pivot(index="body", columns="designer", values="eval_seconds")
+    assert len(by_designer) == 2 and (by_designer["random"] == by_designer["ga[survivors=1]"]).all()  # one training, replayed
+    assert len(sorted(run.glob("artifacts/*/*/" + WEIGHTS_FILE))) == 4  # each trial has the policies of its bodies
+    replayed = CliRunner().invoke(app, ["replay", str(run), "--designer", "ga[survivors=1]"], catch_exceptions=False)
+    assert replayed.exit_code == 0 and "reward" in replayed.stdout, replayed.stderr

@@ -7,6 +7,7 @@ Most tests drive real ``gdabench`` processes (``python -m gdabench``) on the fau
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -21,7 +22,7 @@ from typer.testing import CliRunner
 from gdabench.cli import app
 from gdabench.faults import POINTS
 from gdabench.results import RunDirectory
-from processes import cli, error_lines, table
+from processes import cli, default_sigint, error_lines, table
 
 ARGS = ["compare", "-d", "ga,random", "--env", "faulty", "--budget", "60", "--population", "10", "--seeds", "0,1", "-q", "--no-report"]
 SLOW = {"GDABENCH_FAULTY_DELAY": "0.03"}
@@ -157,6 +158,56 @@ def test_sigterm_is_an_interruption_and_resumes(tmp_path, faulty_site, reference
     assert_whole(out, reference)
 
 
+@pytest.mark.parametrize("lost", ["gen-000000.parquet", "gen-000002.parquet", "."])
+def test_a_generation_file_missing_under_a_checkpoint_is_refused_naming_it(lost, tmp_path, faulty_site, reference):
+    out = tmp_path / "run"
+    dead = cli(*ARGS, "--jobs", "1", "--out", str(out), site=faulty_site, env={"GDABENCH_FAULT": "checkpoint-written:4"})
+    assert dead.returncode == -signal.SIGKILL, dead.stderr
+    folder = out / "pending" / "ga-seed0"
+    written = sorted(p.name for p in folder.glob("gen-*"))
+    assert written == [f"gen-{g:06d}.parquet" for g in range(4)]
+    left = [] if lost == "." else [name for name in written if name != lost]
+    subprocess.run(["rm", "-r", str(folder if lost == "." else folder / lost)], check=True)
+    first_missing = folder / ("gen-000000.parquet" if lost == "." else lost)
+    for _ in range(2):  # every resume says the same, and writes no generation past the gap
+        resumed = cli("compare", "--resume", str(out), "-q", "--no-report", site=faulty_site)
+        lines = error_lines(resumed)
+        assert resumed.returncode == 1 and len(lines) == 1, resumed.stderr
+        assert lines[0].startswith("error: ") and f"{first_missing} is missing" in lines[0], resumed.stderr
+        assert sorted(p.name for p in folder.glob("gen-*")) == left
+    assert RunDirectory.open(out).meta["status"] == "failed"
+    subprocess.run(["rm", "-rf", str(folder), str(out / "checkpoints" / "ga-seed0.pkl")], check=True)  # what the line says to do
+    assert cli("compare", "--resume", str(out), "-q", "--no-report", site=faulty_site).returncode == 0
+    assert_whole(out, reference)
+
+
+def test_a_kill_mid_generation_keeps_the_bodies_it_evaluated(tmp_path, faulty_site, reference):
+    out, log = tmp_path / "run", tmp_path / "evaluated.txt"
+    dead = cli(*ARGS, "--jobs", "1", "--out", str(out), site=faulty_site,
+               env={"GDABENCH_FAULT": "outcome-stored:15", "GDABENCH_FAULTY_LOG": str(log)})  # ga seed 0, generation 1, 5th body
+    assert dead.returncode == -signal.SIGKILL, dead.stderr
+    assert len(RunDirectory.open(out).load_evaluations()) == 10  # generation 1 was not written
+    resumed = cli("compare", "--resume", str(out), "-q", "--no-report", site=faulty_site, env={"GDABENCH_FAULTY_LOG": str(log)})
+    assert resumed.returncode == 0, resumed.stderr
+    assert_whole(out, reference)
+    evaluated = log.read_text().splitlines()
+    assert len(evaluated) == len(set(evaluated))  # the 5 bodies scored before the kill were not scored again
+    assert not (out / "outcomes").exists()
+
+
+def test_trials_that_propose_the_same_body_score_it_once(tmp_path, faulty_site, reference):
+    """ga and random share generation 0 under a seed (Evolution Gym's sampler): the run trains it once."""
+    out, log = tmp_path / "run", tmp_path / "evaluated.txt"
+    result = cli(*ARGS, "--jobs", "1", "--out", str(out), site=faulty_site, env={"GDABENCH_FAULTY_LOG": str(log)})
+    assert result.returncode == 0, result.stderr
+    assert_whole(out, reference)  # the replayed rows are the computed ones: the table is the same
+    rows = table(out)
+    first = rows[(rows["generation"] == 0) & (rows["seed"] == 0)]
+    assert set(first[first["designer"] == "ga"]["body"]) == set(first[first["designer"] == "random"]["body"])
+    evaluated = log.read_text().splitlines()
+    assert len(evaluated) == len(set(evaluated)) == rows[rows["status"] == "ok"]["body_hash"].groupby(rows["seed"]).nunique().sum()
+
+
 def test_ctrl_c_pressed_again_and_again_gives_one_line(tmp_path, faulty_site):
     out = tmp_path / "run"
     proc = cli(*ARGS, "--out", str(out), site=faulty_site, env=SLOW, background=True)
@@ -168,6 +219,38 @@ def test_ctrl_c_pressed_again_and_again_gives_one_line(tmp_path, faulty_site):
     assert proc.returncode == 130, err
     assert "Traceback" not in err and [line for line in err.splitlines() if line.strip()][0].startswith("error: interrupted"), err
     assert RunDirectory.open(out).meta["status"] == "interrupted"
+
+
+def spawned_children(pid: int) -> list[str]:
+    """Worker processes multiprocessing spawned from ``pid`` (its resource tracker is not one)."""
+    path = Path(f"/proc/{pid}/task/{pid}/children")
+    spawned = []
+    for child in path.read_text().split() if path.exists() else []:
+        with contextlib.suppress(OSError):  # it may have ended meanwhile
+            if "spawn_main" in Path(f"/proc/{child}/cmdline").read_text(errors="replace"):
+                spawned.append(child)
+    return spawned
+
+
+@pytest.mark.skipif(not Path(f"/proc/{os.getpid()}/task/{os.getpid()}/children").exists(), reason="needs /proc/PID/task/TID/children")
+def test_ctrl_c_in_a_terminal_while_workers_start_gives_one_line(tmp_path, faulty_site):
+    """A terminal's Ctrl-C goes to the whole process group, workers still importing included."""
+    env = dict(os.environ, COLUMNS="200", PYTHONPATH=os.pathsep.join(filter(None, [str(faulty_site), os.environ.get("PYTHONPATH")])), **SLOW)
+    for attempt, pause in enumerate((0.0, 0.25, 0.5, 0.75, 1.0, 1.5)):  # moments of the workers' set-up (imports, unpickling)
+        command = [sys.executable, "-m", "gdabench", *ARGS, "--jobs", "2", "--workers", "2", "--out", str(tmp_path / f"run{attempt}")]
+        proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, start_new_session=True,
+                                preexec_fn=default_sigint)
+        wait_for(lambda: spawned_children(proc.pid), proc, "a worker process")
+        time.sleep(pause)
+        while proc.poll() is None:  # again until it ends: one press may land while a worker is being started (ignored then)
+            os.killpg(proc.pid, signal.SIGINT)
+            try:
+                proc.wait(0.5)
+            except subprocess.TimeoutExpired:
+                pass
+        err = proc.stderr.read()
+        lines = [line for line in err.splitlines() if line.strip()]
+        assert proc.returncode == 130 and "Traceback" not in err and len(lines) == 1 and lines[0].startswith("error: interrupted"), err
 
 
 # -- a full disk --------------------------------------------------------------------------------------
@@ -194,6 +277,43 @@ def test_a_full_disk_fails_the_run_in_one_line_and_keeps_what_was_written(small_
     assert len(run.load_evaluations()) > 0 and not list(out.rglob("*.tmp"))
 
 
+def fill(disk: Path) -> None:
+    """Leave no free byte on ``disk``."""
+    subprocess.run(["dd", "if=/dev/zero", f"of={disk / 'filler'}", "bs=4k"], capture_output=True)
+
+
+def test_a_full_disk_is_one_line_and_exit_1_for_every_command(small_disk, faulty_site):
+    run = small_disk / "run"
+    assert cli("compare", "-d", "random", "--budget", "50", "-q", "--no-report", "--out", str(run), site=faulty_site).returncode == 0
+    fill(small_disk)
+    for args, where in [(["report", str(run)], run / "report"), (["export", str(run)], run / "export" / "ioh"),
+                        (["export", str(run), "-f", "csv"], run / "export" / "evaluations.csv"),
+                        (["compare", "-d", "random", "--budget", "50", "-q", "--out", str(small_disk / "new")], small_disk / "new")]:
+        result = cli(*args, site=faulty_site)
+        lines = error_lines(result)
+        assert result.returncode == 1 and len(lines) == 1, (args, result.stderr)
+        assert lines[0].startswith(f"error: no space left on the device of {where}"), result.stderr
+        assert not where.exists()
+    assert not (small_disk / "new").exists() and not list(small_disk.rglob("*.tmp")) and not list(small_disk.rglob("*gdabench-*"))
+
+
+# -- reports and exports ------------------------------------------------------------------------------
+@pytest.mark.parametrize("command, made", [(["report"], "report"), (["export"], "export/ioh")])
+def test_a_killed_report_or_export_leaves_nothing_half_written(command, made, tmp_path, faulty_site):
+    out = tmp_path / "run"
+    assert cli("compare", "-d", "random", "--budget", "50", "-q", "--no-report", "--out", str(out), site=faulty_site).returncode == 0
+    dead = cli(*command, str(out), site=faulty_site, env={"GDABENCH_FAULT": "output-staged"})
+    assert dead.returncode == -signal.SIGKILL, dead.stderr
+    assert not (out / made).exists()  # nothing, rather than a part
+    assert list(out.rglob("*gdabench-*"))  # what the kill left (the next writer clears it)
+    (out / "export").mkdir(exist_ok=True)
+    (out / "export" / ".evaluations.csv.k1ll3d.tmp").write_text("half a table")  # as a killed CSV export leaves
+    for again in (command, ["export", "-f", "csv"]):
+        assert cli(*again, str(out), site=faulty_site).returncode == 0
+    assert (out / made).is_dir() and not list(out.rglob("*gdabench-*")) and not list(out.rglob("*.tmp"))
+    assert (out / "report" / "report.html").exists() or command == ["export"]
+
+
 # -- input errors: one line, exit 2, nothing made ----------------------------------------------------
 BAD_INPUT = [
     (["-d", "ga[survivors=abc]"], "designer 'ga[survivors=abc]': parameter 'survivors' must be an integer or null, got 'abc'"),
@@ -201,6 +321,9 @@ BAD_INPUT = [
     (["-d", "ga[survivors=2.5]"], "parameter 'survivors' must be an integer or null, got 2.5"),
     (["-d", "ga[survivors=true]"], "parameter 'survivors' must be an integer or null, got True"),
     (["-d", "ga[attempts=1.5]"], "parameter 'attempts' must be an integer, got 1.5"),
+    (["-d", "ga[max_tries=0]"], "ga: max_tries must be at least 1, got 0"),
+    (["-d", "ga,"], "malformed list 'ga,': an empty item"),
+    (["-d", "ga,random", "--env", "simple,,nk"], "malformed list 'simple,,nk': an empty item"),
     (["-d", "ga[mutation_rate=high]"], "parameter 'mutation_rate' must be a number, got 'high'"),
     (["-d", "cppn[config=5]"], "cppn: cannot read config file '5'"),
     (["-d", "ga", "--seeds", "99999999999999999999"], "seed must be an integer from 0 to 4294967295"),
@@ -241,12 +364,55 @@ def test_output_paths_that_cannot_be_a_run_directory(tmp_path):
         assert result.exit_code == 2 and len(lines) == 1 and fragment in lines[0], (out, result.stderr)
 
 
+def test_a_label_too_long_for_a_file_name_runs_reports_and_exports(tmp_path):
+    long = "ga[mutation_rate=0." + "1" * 260 + "]"
+    out = tmp_path / "run"
+    for args in (["compare", "-d", f"{long},random", "--budget", "50", "-q", "--out", str(out)], ["export", str(out)]):
+        result = CliRunner().invoke(app, args, env={"COLUMNS": "300"})
+        assert result.exit_code == 0, result.stderr
+    assert set(RunDirectory.open(out).load_evaluations()["designer"]) == {long, "random"}
+
+
+def damaged(tmp_path: Path, damage) -> Path:
+    """A complete run, then ``damage(run_dir)``."""
+    out = tmp_path / "run"
+    assert CliRunner().invoke(app, ["compare", "-d", "random", "--budget", "50", "-q", "--no-report", "--out", str(out)]).exit_code == 0
+    damage(out)
+    return out
+
+
+def budget_abc(out: Path) -> None:
+    meta = RunDirectory.open(out).meta
+    RunDirectory(out).write_meta({**meta, "config": {**meta["config"], "budget": "abc"}})
+
+
+@pytest.mark.parametrize("damage, command, code, fragment", [
+    (budget_abc, ["compare", "--resume"], 2, "run.json: config: budget must be an integer from 1 to 10,000,000, got 'abc'"),
+    (budget_abc, ["report"], 0, "run.json has no readable configuration; budget and seeds are taken from the table"),
+    (lambda out: (out / "evaluations.parquet").unlink(), ["compare", "--no-report", "--resume"], 2, "is complete but its table"),
+    (lambda out: (out / "run.json").write_bytes(b'{"a": "\xff"}'), ["compare", "--config"], 2, "is not UTF-8 text"),
+])
+def test_a_damaged_run_is_one_line_not_an_internal_error(tmp_path, damage, command, code, fragment):
+    out = damaged(tmp_path, damage)
+    result = CliRunner().invoke(app, [*command, str(out / "run.json" if "--config" in command else out)], env={"COLUMNS": "300"})
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert result.exit_code == code and fragment in lines[0] and len(lines) == 1, result.stderr
+    assert "internal error" not in result.stderr
+
+
 @pytest.mark.parametrize("content, fragment", [("[1, 2]", "is not a JSON object"), ('{"format": "gdabench-run/1"}', "has no 'config' table")])
 def test_a_damaged_run_json_is_one_line(tmp_path, content, fragment):
     (tmp_path / "run.json").write_text(content)
     for command in (["compare", "--resume", str(tmp_path)], ["report", str(tmp_path)]):
         result = CliRunner().invoke(app, command, env={"COLUMNS": "300"})
         assert result.exit_code == 2 and fragment in result.stderr and result.stderr.count("\n") == 1, result.stderr
+
+
+def test_an_error_is_the_first_line_on_stderr(tmp_path):
+    """Not an empty line before it (a progress display that never started printed one)."""
+    for args in (["compare", "-d", "nope", "--out", str(tmp_path / "run")], ["compare", "--resume", str(tmp_path)]):
+        result = subprocess.run([sys.executable, "-m", "gdabench", *args], capture_output=True, text=True, env=dict(os.environ, COLUMNS="300"))
+        assert result.returncode == 2 and result.stderr.startswith("error: ") and result.stderr.count("\n") == 1, result.stderr
 
 
 def test_usage_errors_are_one_line_too():

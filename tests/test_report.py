@@ -366,7 +366,7 @@ def test_bad_options(run_dir, tmp_path):
         write_report(run_dir, tmp_path, survivors=0)
     blocker = tmp_path / "file"
     blocker.write_text("")
-    with pytest.raises(ConfigError, match="cannot write the report"):
+    with pytest.raises(ConfigError, match="file exists and is not a directory"):
         write_report(run_dir, blocker / "sub")
     with pytest.raises(RunDirectoryError):
         write_report(tmp_path)
@@ -473,3 +473,19 @@ def test_run_where_every_evaluation_failed(tmp_path):
     (row,) = report.rows
     assert row[3] == "-" and row[4] == "0/1" and row[5] == "not reached"
     assert (run.path / "report" / "report.html").is_file() and (run.path / "report" / "best_bodies.png").is_file()
+
+
+def test_a_run_of_one_generation_draws_whole_generations_and_says_what_is_missing(tmp_path):
+    from gdabench.report import plots
+    from gdabench.report.diversity import diversity
+    from gdabench.report.stats import generation_rewards
+
+    exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), envs=PluginChoice("simple"), budget=25)
+    frame = compare(exp, tmp_path / "run").load_evaluations()
+    div = diversity(frame, 5, 2)
+    figures = [plots.generation_rewards_figure(generation_rewards(frame), ["ga", "random"]),
+               plots.diversity_figure(div, ["ga", "random"]), plots.novelty_figure(div, ["ga", "random"], 2)]
+    axes = [ax for fig in figures for ax in fig.axes if ax.get_visible()]
+    assert len(axes) == 7 and all(ax.get_xlim() == (-1, 1) for ax in axes)  # generation 0 between whole generations
+    empty = [ax for ax in axes if [t.get_text() for t in ax.texts] == ["needs a previous generation"]]
+    assert len(empty) == 3  # nearest survivor, and each designer's novelty panel

@@ -170,7 +170,11 @@ def test_a_trial_whose_every_evaluation_failed_says_so_and_exits_1(tmp_path, fau
     assert lines[-1].startswith("error: every evaluation failed in 1 trial(s), e.g. random on faulty"), result.stderr
     assert any("50 error" in line and "simulator exploded" in line for line in lines[:-1]), result.stderr
     run = RunDirectory.open(tmp_path / "run")
-    assert run.meta["status"] == "complete" and len(run.load_evaluations()) == 100  # the simple trial is whole
+    assert len(run.load_evaluations()) == 100  # the simple trial is whole
+    assert run.meta["status"] == "failed" and run.meta["error"] == lines[-1].removeprefix("error: ")  # as the exit code says
+    again = cli("compare", "--resume", str(tmp_path / "run"), "-q", "--no-report", site=faulty_site)
+    assert again.returncode == 1 and RunDirectory.open(tmp_path / "run").meta["status"] == "failed", again.stderr
+    assert len(run.load_evaluations()) == 100
 
 
 # -- designer failure, kill and resume ----------------------------------------------------------

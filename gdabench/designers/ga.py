@@ -63,6 +63,8 @@ class GeneticAlgorithm(Designer):
             raise ConfigError(f"ga: mutation_rate must be in (0, 1], got {mutation_rate}")
         if attempts < 1:
             raise ConfigError(f"ga: attempts must be at least 1, got {attempts}")
+        if max_tries < 1:
+            raise ConfigError(f"ga: max_tries must be at least 1, got {max_tries}")
         self.fixed_survivors = survivors
         self.mutation_rate = float(mutation_rate)
         self.attempts = int(attempts)

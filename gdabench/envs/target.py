@@ -56,9 +56,11 @@ def parse_target(value: Any) -> Body:
     path = Path(value).expanduser()
     if path.is_file():
         try:
-            text = path.read_text()
+            text = path.read_text(encoding="utf-8")
         except OSError as exc:
             raise ConfigError(f"target: cannot read {path}: {exc.strerror or exc}") from None
+        except UnicodeDecodeError:
+            raise ConfigError(f"target: {path} is not a body's text (not UTF-8)") from None
         origin = f"file {path}"
     else:
         text, origin = value, "text"

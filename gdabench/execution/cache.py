@@ -41,19 +41,19 @@ def recipe_identity(recipe: Factory | None, package: tuple[str, str] | None = No
         if isinstance(recipe.factory, str)
         else f"{recipe.factory.__module__}:{recipe.factory.__qualname__}"
     )
-    return {"factory": factory, "params": _plain(dict(recipe.params)), "package": list(package) if package else None}
+    return {"factory": factory, "params": plain(dict(recipe.params)), "package": list(package) if package else None}
 
 
-def _plain(value: Any) -> Any:
+def plain(value: Any) -> Any:
     """JSON-compatible copy: tuples become lists, numpy scalars Python numbers; else TypeError."""
     if isinstance(value, Mapping):
-        return {str(k): _plain(v) for k, v in value.items()}
+        return {str(k): plain(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
+        return [plain(v) for v in value]
     if value is None or isinstance(value, (bool, int, float, str)):
         return value
     if hasattr(value, "item") and callable(value.item):  # numpy scalar
-        return _plain(value.item())
+        return plain(value.item())
     raise TypeError(f"{type(value).__name__} is not a plain value")
 
 
@@ -91,7 +91,7 @@ class EvaluationCache:
         if outcome.status != OK or outcome.cached:
             return False
         try:
-            info = _plain(dict(outcome.info))
+            info = plain(dict(outcome.info))
         except TypeError:
             return False  # an extra column that does not survive JSON would come back different
         entry = {

@@ -31,6 +31,7 @@ from typing import Any, Sequence
 
 from ..errors import GdabenchError, one_line
 from ..specs import Factory
+from . import spawning
 from .evaluation import ERROR, TIMEOUT, EvalOutcome, EvalTask, evaluate, prepare
 from .executor import Executor
 
@@ -242,7 +243,7 @@ class ProcessBackend(Backend):
         process = self._ctx.Process(
             target=_serve, args=(worker_end, self.warm, os.getpid()), daemon=True, name="gdabench-worker"
         )
-        process.start()
+        spawning.start(process)
         worker_end.close()
         return _Process(process, driver_end)
 

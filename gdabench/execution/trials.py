@@ -19,7 +19,7 @@ import threading
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import pandas as pd
 
@@ -27,21 +27,37 @@ from ..errors import GdabenchError, one_line
 from ..plan import TrialSpec
 from ..results import Checkpoint, RunDirectory
 from ..trial import GenerationResult, Trial
-from . import cores
+from . import cores, spawning
 from .cache import EvaluationCache
 from .evaluation import EvalOutcome, EvalTask, Evaluate, instance
 from .executor import Executor
 from .options import Execution, make_executor
+from .outcomes import RunOutcomes
 from .pool import death_message, exit_when_orphaned
 
 
+@dataclass(frozen=True)
+class BodiesDone:
+    """Progress inside a generation, sent while it runs: ``done`` of its ``total`` new bodies are evaluated."""
+
+    trial: int  # the spec's index
+    generation: int
+    done: int
+    total: int
+
+
 class TrialHost:
-    """Runs trials one at a time in its process, with one evaluation executor for its life."""
+    """Runs trials one at a time in its process, with one evaluation executor for its life.
+
+    ``progress``, when set, is told :class:`BodiesDone` after every body (or every batch of bodies
+    evaluated at once) of a generation.
+    """
 
     def __init__(self, run_id: str, run_path: Path, execution: Execution, prebuilt: Mapping[str, Any] | None = None):
         self.run_id, self.run_path, self.execution = run_id, Path(run_path), execution
         self.prebuilt = dict(prebuilt or {})
         self.trial: Trial | None = None
+        self.progress: Callable[[BodiesDone], None] | None = None
         self._executor: Executor | None = None
         self._evaluate: Evaluate | None = None
 
@@ -61,8 +77,19 @@ class TrialHost:
         evaluate: Evaluate = self._executor.map
         if self.execution.cache is not None and spec.cache_context is not None:
             evaluate = cached(evaluate, EvaluationCache(self.execution.cache, spec.cache_context))
+        # deterministic environments only; a Ray cluster's nodes may not see the run directory
+        outcomes = (
+            RunOutcomes(self.run_path)
+            if spec.cache_context is not None and self.execution.executor == "local"
+            else None
+        )
+        evaluate = body_by_body(evaluate, self.execution.workers, outcomes, self._report)
         strategy = instance(spec.controller, self.prebuilt).evaluation_strategy() if spec.controller else None
         self._evaluate = evaluate if strategy is None else functools.partial(strategy.evaluate, evaluate=evaluate)
+
+    def _report(self, done: int, total: int) -> None:
+        if self.progress is not None and self.trial is not None:
+            self.progress(BodiesDone(self.trial.spec.index, self.trial.generation, done, total))
 
     def step(self) -> GenerationResult:
         """Run the open trial's next generation."""
@@ -79,6 +106,32 @@ class TrialHost:
         if self._executor is not None:
             self._executor.close()
             self._executor = None
+
+
+def body_by_body(
+    evaluate: Evaluate, at_once: int, outcomes: RunOutcomes | None, report: Callable[[int, int], None]
+) -> Evaluate:
+    """``evaluate`` a generation ``at_once`` bodies at a time (as many as its workers take), so that each
+    finished body is reported and recorded in the run's ``outcomes`` at once, and recorded ones are replayed."""
+
+    def evaluate_each(tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
+        known = [outcomes.get(task) if outcomes is not None else None for task in tasks]
+        todo = [i for i, outcome in enumerate(known) if outcome is None]
+        done = len(tasks) - len(todo)
+        report(done, len(tasks))
+        for start in range(0, len(todo), at_once):
+            part = todo[start:start + at_once]
+            for i, outcome in zip(part, evaluate([tasks[i] for i in part])):
+                known[i] = outcome
+                if outcomes is not None:
+                    outcomes.put(tasks[i], outcome)
+            done += len(part)
+            report(done, len(tasks))
+        filled = [outcome for outcome in known if outcome is not None]
+        assert len(filled) == len(tasks), "every body was evaluated or replayed"
+        return filled
+
+    return evaluate_each
 
 
 def cached(evaluate: Evaluate, cache: EvaluationCache) -> Evaluate:
@@ -174,6 +227,7 @@ class InProcess(TrialWorkers):
 def _serve(conn: Connection, host: TrialHost, parent: int, pool: Any, held: Any) -> None:
     """A trial worker process: answer the driver's calls until it says stop or goes away."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the driver decides what an interrupt means
+    host.progress = lambda bodies: conn.send((True, bodies))
     cores.install(pool, held)
     threading.Thread(target=exit_when_orphaned, args=(parent,), daemon=True).start()
     while True:
@@ -218,7 +272,7 @@ class LocalProcesses(TrialWorkers):
         process = self._ctx.Process(
             target=_serve, args=(worker_end, host, os.getpid(), self.spare, held), daemon=False, name="gdabench-trial"
         )
-        process.start()
+        spawning.start(process)
         worker_end.close()
         return _Process(process, driver_end)
 

@@ -20,7 +20,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import re
 from pathlib import Path
 from typing import Any, Mapping, cast
 
@@ -31,9 +30,10 @@ from ..body import Body
 from ..config import Experiment
 from ..errors import ConfigError, GdabenchError, RunDirectoryError
 from ..execution.evaluation import COUNTED, OK
+from ..names import file_name
 from ..plan import Plan
 from ..plugins import Registry, registry
-from ..results import RunDirectory, atomic_write_bytes
+from ..results import RunDirectory
 from . import plots
 from .animation import animate
 from .bodies import bodies_figure
@@ -41,6 +41,7 @@ from .content import Figure, Report, Section, Table
 from .diversity import NEAR_COPY, SURVIVORS, diversity
 from .html import render_html
 from .markdown import render_markdown
+from .staging import staged_folder
 from .stat_pages import statistics_sections
 from .stats import CONFIDENCE, RESAMPLES, best_so_far_curve, generation_rewards, median_band
 from .summary import failure_counts, per_run, summarize, thresholds
@@ -91,7 +92,7 @@ def _budget(experiment: Experiment | None, frame: pd.DataFrame) -> int:
 
 
 def _slug(label: str, taken: set[str]) -> str:
-    base = re.sub(r"[^A-Za-z0-9_.=-]+", "_", label).strip("_") or "designer"
+    base = file_name(label).strip("_") or "designer"
     slug, i = base, 1
     while slug in taken:
         i += 1
@@ -232,7 +233,11 @@ def definitions(confidence: float, survivors: int, near_copy: int) -> list[tuple
             "min / mean / max reward of the bodies evaluated in that generation (duplicates and invalid bodies "
             "excluded); median over seeds with the inter-quartile range.",
         ),
-        ("Wall time", "elapsed time of a run when its last generation was written (the machine may have been shared)."),
+        (
+            "Wall time",
+            "elapsed time of a run when its last generation was written, carried across resumes; a generation cut "
+            "short by a kill is run again and only that second time counts (the machine may have been shared).",
+        ),
         (
             "Survivors (diversity)",
             f"the {survivors} best bodies a run had evaluated before the generation (the GDA's and the thesis GA's "
@@ -553,9 +558,9 @@ def _write(report: Report, tables: dict[str, tuple[pd.DataFrame, str]]) -> None:
     files.update({name: table.to_csv(index=False).encode() for name, (table, _) in tables.items()})
     files["summary.md"] = render_markdown(report).encode()
     files["report.html"] = render_html(report).encode()
-    try:
+    if report.out.exists() and not report.out.is_dir():
+        raise ConfigError(f"cannot write the report to {report.out}: it is a file")
+    with staged_folder(report.out, whole=False, last="report.html") as staging:
         for name, data in files.items():
-            atomic_write_bytes(report.out / name, data)
-            os.chmod(report.out / name, 0o644)  # a report is for sharing (temporary files start private)
-    except OSError as exc:
-        raise ConfigError(f"cannot write the report to {report.out}: {exc.strerror or exc}") from None
+            (staging / name).write_bytes(data)
+            os.chmod(staging / name, 0o644)  # a report is for sharing

@@ -27,9 +27,6 @@ proposed body, for spreadsheets.
 from __future__ import annotations
 
 import json
-import re
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -38,8 +35,10 @@ import pandas as pd
 from ..body import Body
 from ..errors import ConfigError
 from ..execution.evaluation import OK
+from ..names import file_name
 from ..results import RunDirectory, atomic_write_bytes
 from .runtimes import RunTrace, run_traces, with_run_id
+from .staging import staged_folder, writing
 
 FORMATS = ("ioh", "csv")
 #: the JSON format version written; IOHanalyzer reads JSON-indexed data of version 0.3.3 and later
@@ -49,7 +48,7 @@ HEADER = "evaluations raw_y"
 
 
 def _name(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "x"
+    return file_name(text, "A-Za-z0-9_.-").strip("_") or "x"
 
 
 def default_out(run: RunDirectory, fmt: str) -> Path:
@@ -68,7 +67,8 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None) -> 
     if fmt == "csv":
         if target.is_dir():
             raise ConfigError(f"--out {target} is a directory; give a file name for the CSV")
-        atomic_write_bytes(target, frame.to_csv(index=False).encode())
+        with writing(target):
+            atomic_write_bytes(target, frame.to_csv(index=False).encode())
         return target
     if target.exists() and not target.is_dir():
         raise ConfigError(f"--out {target} is a file; IOHprofiler data is a directory")
@@ -79,16 +79,8 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None) -> 
 def write_ioh(frame: pd.DataFrame, out: Path) -> list[Path]:
     """Write ``frame`` as IOHprofiler data into the directory ``out`` (replaced whole); returns
     the JSON index files."""
-    out.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}."))
-    try:
+    with staged_folder(out, whole=True) as staging:
         written = _write_ioh(frame, staging)
-        if out.exists():
-            shutil.rmtree(out)
-        staging.rename(out)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
     return [out / p.relative_to(staging) for p in written]
 
 

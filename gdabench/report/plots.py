@@ -39,9 +39,17 @@ def _grid(n: int, max_cols: int = 3, size: tuple[float, float] = (4.2, 3.0)) -> 
     return fig, axes.flat
 
 
-def _generation_axis(ax) -> None:
+def _generation_axis(ax, generations: Sequence[int]) -> None:
     ax.set_xlabel("generation")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    if len(set(generations)) == 1:  # a run of one generation: whole generations around it, not matplotlib's +-0.05
+        ax.set_xlim(generations[0] - 1, generations[0] + 1)
+
+
+def _empty(ax, why: str) -> None:
+    """Say why a panel has nothing to draw, instead of leaving it blank."""
+    ax.text(0.5, 0.5, why, transform=ax.transAxes, ha="center", va="center", fontsize=8, color="0.4", wrap=True)
+    ax.set_yticks([])
 
 
 def best_so_far_figure(
@@ -94,7 +102,7 @@ def generation_rewards_figure(generations: pd.DataFrame, designers: Sequence[str
                     lw=0,
                 )
         ax.set_title(f"{designer} ({seeds} seed{'s' if seeds != 1 else ''})", fontsize=10)
-        _generation_axis(ax)
+        _generation_axis(ax, list(mine["generation"]))
         ax.grid(alpha=0.3)
         ax.yaxis.set_tick_params(labelleft=True)
     axes[0].set_ylabel("reward")
@@ -116,7 +124,7 @@ def diversity_figure(div: pd.DataFrame, designers: Sequence[str]) -> Figure:
         for i, designer in enumerate(designers):
             by_gen = div[div["designer"] == designer].groupby("generation")[column]
             median = by_gen.median()
-            ax.plot(median.index, median.to_numpy(), color=f"C{i % 10}", lw=1.5, label=designer)
+            ax.plot(median.index, median.to_numpy(), color=f"C{i % 10}", lw=1.5, marker=".", ms=3, label=designer)
             ax.fill_between(
                 median.index,
                 by_gen.quantile(0.25).to_numpy(),
@@ -126,7 +134,9 @@ def diversity_figure(div: pd.DataFrame, designers: Sequence[str]) -> Figure:
                 lw=0,
             )
         ax.set_title(label, fontsize=9)
-        _generation_axis(ax)
+        _generation_axis(ax, list(div["generation"]))
+        if not div[column].notna().any():
+            _empty(ax, "needs a previous generation")
         ax.grid(alpha=0.3)
     axes[0].set_ylim(0, 1.05)
     axes[0].legend(fontsize=8)
@@ -143,8 +153,10 @@ def novelty_figure(div: pd.DataFrame, designers: Sequence[str], near_copy: int) 
         mean = mine.groupby("generation")[share_columns].mean()
         if len(mean):
             ax.stackplot(mean.index, mean.to_numpy().T, labels=CATEGORIES, colors=CATEGORY_COLOURS, step="mid")
+        else:
+            _empty(ax, "needs a previous generation")
         ax.set_title(designer, fontsize=10)
-        _generation_axis(ax)
+        _generation_axis(ax, list(div["generation"]))
         ax.set_ylim(0, 1)
         ax.yaxis.set_tick_params(labelleft=True)
     axes[0].set_ylabel("share of proposals")

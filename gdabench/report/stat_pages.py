@@ -13,6 +13,7 @@ from typing import Mapping
 
 import pandas as pd
 
+from ..names import file_name
 from . import plots, stat_plots
 from .aggregate import PROFILE_POINTS, aggregate_scores, normalised_scores
 from .content import Figure, Section, Table
@@ -96,7 +97,7 @@ def statistics_sections(
 
 
 def _slug(name: str) -> str:
-    return "".join(c if c.isalnum() or c in "-_." else "_" for c in name)
+    return file_name(name, "A-Za-z0-9_.-")
 
 
 # -- significance ---------------------------------------------------------------------------------

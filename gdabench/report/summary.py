@@ -149,3 +149,16 @@ def failure_counts(evaluations: pd.DataFrame, examples: int = 2) -> pd.DataFrame
             }
         )
     return pd.DataFrame(rows, columns=["designer", "env", *PROBLEMS, "all_failed_trials", "messages", "line"])
+
+
+def nothing_measured(counts: pd.DataFrame) -> str | None:
+    """The line that says trials measured nothing (every evaluation failed), from :func:`failure_counts`;
+    None if none did."""
+    hopeless = counts[counts["all_failed_trials"] > 0]
+    if not len(hopeless):
+        return None
+    first = hopeless.iloc[0]
+    return (
+        f"every evaluation failed in {int(hopeless['all_failed_trials'].sum())} trial(s), "
+        f"e.g. {first['designer']} on {first['env']}"
+    )

@@ -34,6 +34,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ...errors import GdabenchError
+from ...execution import spawning
 from ...torch_runtime import torch_threads
 from .training import FitResult, Trainer, TrainerSpec, TrainJob
 
@@ -155,7 +156,7 @@ class TrainingWorker:
             target=_serve, args=(child, self._abandoned, self._warm, spec), daemon=True, name="gda-training"
         )
         try:
-            self._process.start()
+            spawning.start(self._process)
         except Exception as exc:  # noqa: BLE001 - e.g. inside a daemonic process, which may not have children
             raise WorkerError(f"cannot start the training process ({type(exc).__name__}: {exc})") from None
         finally:

@@ -1,0 +1,78 @@
+"""The run's own record of finished evaluations, kept as each body finishes (``<run>/outcomes/``).
+
+Two things depend on it.  A kill in the middle of a generation loses only the bodies still being
+evaluated: a resume asks the restored designer for the same generation, and the bodies already scored
+are taken from here instead of being trained again.  And trials of one run that propose the same body
+under the same seed (``ga`` and ``gda`` share generation 0 by design) score it once: a body's reward
+depends only on the body, the evaluation seed and the environment and controller recipes, so the second
+trial replays the first one's outcome, its files (a trained policy) copied to its own folder.
+
+Only deterministic environments are recorded, and only successful evaluations (an error may be
+transient).  A replayed outcome is the computed one, with its time; it is not marked ``cached`` (that
+column is about ``--cache``).  The folder is removed when the run completes.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+from pathlib import Path
+
+from .. import faults
+from ..results import atomic_write_bytes
+from .cache import plain
+from .evaluation import OK, EvalOutcome, EvalTask
+
+OUTCOMES = "outcomes"
+
+
+class RunOutcomes:
+    """Successful outcomes of the run in ``run_path``, by task (body, evaluation seed, recipes)."""
+
+    def __init__(self, run_path: Path):
+        self.run_path = Path(run_path)
+        self.root = self.run_path / OUTCOMES
+
+    def _path(self, task: EvalTask) -> Path:
+        recipes = (task.env.key(), task.controller.key() if task.controller is not None else None)
+        key = hashlib.sha256(f"{recipes!r}|{task.body.hash}|{task.seed}".encode()).hexdigest()
+        return self.root / key[:2] / f"{key}.json"
+
+    def get(self, task: EvalTask) -> EvalOutcome | None:
+        """The outcome recorded for ``task`` (its files copied to the task's workdir), or None."""
+        try:
+            entry = json.loads(self._path(task).read_text())
+            outcome = EvalOutcome(float(entry["reward"]), OK, "", float(entry["seconds"]), dict(entry["info"]))
+            source = self.run_path / entry["workdir"] if entry["workdir"] else None
+        except (OSError, ValueError, KeyError, TypeError):
+            return None
+        if source is not None and task.workdir is not None and source != task.workdir and source.is_dir():
+            shutil.copytree(source, task.workdir, dirs_exist_ok=True)
+        return outcome
+
+    def put(self, task: EvalTask, outcome: EvalOutcome) -> None:
+        """Record a successful outcome computed in this run (not one taken from ``--cache``)."""
+        if outcome.status != OK or outcome.cached:
+            return
+        try:
+            info = plain(dict(outcome.info))
+        except TypeError:
+            return  # an extra column that does not survive JSON would come back different
+        workdir = None
+        if task.workdir is not None and task.workdir.is_relative_to(self.run_path):
+            workdir = str(task.workdir.relative_to(self.run_path))
+        entry = {
+            "reward": outcome.reward,
+            "seconds": outcome.seconds,
+            "info": info,
+            "body": task.body.text,
+            "seed": task.seed,
+            "workdir": workdir,
+        }
+        atomic_write_bytes(self._path(task), (json.dumps(entry, sort_keys=True) + "\n").encode())
+        faults.point("outcome-stored")
+
+    def discard(self) -> None:
+        """Remove the record (the run is complete: nothing is left to resume or share)."""
+        shutil.rmtree(self.root, ignore_errors=True)

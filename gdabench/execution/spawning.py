@@ -1,0 +1,69 @@
+"""Starting the harness's worker processes, which are spawned (a fork of a process running torch's
+threads can deadlock), without what spawning does by default that a user would not expect.
+
+- A spawned child imports the script that started the run (``__main__``) again, so a script that calls
+  :func:`gdabench.compare` without ``if __name__ == "__main__":`` would start the run again in every
+  worker.  The children skip it unless the run's plugins are defined there (they need it to unpickle
+  them); the runner says which with :func:`scripts_shared`.
+- Ctrl-C in a terminal reaches every process of the group, and a child still setting itself up would
+  print a traceback.  Children start with Ctrl-C ignored (they inherit it across ``exec``); the process
+  that started them decides what an interrupt means and stops them.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import sys
+import threading
+import types
+from multiprocessing.process import BaseProcess
+from typing import Iterator
+
+_share_script = True
+
+
+@contextlib.contextmanager
+def scripts_shared(share: bool) -> Iterator[None]:
+    """Within this block, whether children started here import the user's script (``__main__``)."""
+    global _share_script
+    previous, _share_script = _share_script, share
+    try:
+        yield
+    finally:
+        _share_script = previous
+
+
+@contextlib.contextmanager
+def _without_script() -> Iterator[None]:
+    main = sys.modules["__main__"]
+    sys.modules["__main__"] = types.ModuleType("__main__")  # what spawning reads to find the script: nothing
+    try:
+        yield
+    finally:
+        sys.modules["__main__"] = main
+
+
+@contextlib.contextmanager
+def _ctrl_c_ignored() -> Iterator[None]:
+    """Ignore Ctrl-C while a child starts (a Ctrl-C in those milliseconds is lost: press it again)."""
+    if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGINT) is None:
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def start(process: BaseProcess) -> None:
+    """Start a spawned worker process with Ctrl-C ignored, importing the user's script only if it must."""
+    with _ctrl_c_ignored(), (contextlib.nullcontext() if _share_script else _without_script()):
+        process.start()
+
+
+def from_script(factory: object) -> bool:
+    """Whether a plugin factory (an import string or a callable) is defined in the user's script."""
+    module = factory.partition(":")[0] if isinstance(factory, str) else getattr(factory, "__module__", None)
+    return module == "__main__"
