@@ -12,11 +12,13 @@ CI reads the file; it never needs Evolution Gym.
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import io
 import math
 import os
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -70,13 +72,20 @@ def record(name: str) -> dict[str, np.ndarray]:
             f"{name}.unstable": np.array(unstable)}
 
 
-def main(path: str) -> None:
-    data = {}
-    for name in CASES:
-        data.update(record(name))
-    np.savez_compressed(path, **data)
-    print(f"wrote {path}: {', '.join(CASES)}")
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("path", type=Path, help="the .npz file to write (tests/fixtures/voxel_parity.npz)")
+    args = parser.parse_args()
+    try:
+        data = {}
+        for name in CASES:
+            data.update(record(name))
+    except ImportError as exc:
+        print(f"error: Evolution Gym is not installed ({exc}); run this in plugins/gdabench-evogym's venv", file=sys.stderr)
+        raise SystemExit(2) from None
+    np.savez_compressed(args.path, **data)
+    print(f"wrote {args.path}: {', '.join(CASES)}")
 
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    main()

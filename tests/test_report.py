@@ -109,7 +109,7 @@ def test_best_reward_and_wall_time_match_pandas(report, table, run_dir):
     assert cells["ga"][3].startswith(f"{best['ga'].median():.4g}")
 
 
-def test_area_under_best_so_far_matches_the_tables_own_column(table, run_dir):
+def test_area_under_best_so_far_matches_the_tables_own_column(table, run_dir, report):
     """Mean best-so-far (area / evaluations) from the report vs the runner's best_so_far column."""
     runs = pd.read_csv(run_dir / "report" / "runs.csv").set_index(["designer", "seed"])
     for (designer, seed), g in _runs(table):

@@ -197,17 +197,22 @@ def _serve(conn: Connection, warm: Sequence[Factory], parent: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     threading.Thread(target=exit_when_orphaned, args=(parent,), daemon=True).start()
     prepare(warm)
-    conn.send(READY)
+    try:
+        conn.send(READY)
+    except OSError:  # the driver is gone (stopped while this worker started): nobody to tell
+        return
     while True:
         try:
             task = conn.recv()
-        except EOFError:
+        except (EOFError, OSError):  # the driver is gone
             return
         if task is None:
             return
         outcome = evaluate(task)
         try:
             conn.send(outcome)
+        except OSError:  # the driver is gone
+            return
         except Exception as exc:  # noqa: BLE001 - e.g. an info value that does not pickle
             conn.send(
                 EvalOutcome(
