@@ -351,7 +351,9 @@ class RunDirectory:
 
     def _read(self, path: Path) -> pd.DataFrame:
         try:
-            frame = pd.read_parquet(path)
+            # one read of one file: pyarrow given a path may stat it and open it apart, and a writer's
+            # rename in between hands it the new file's bytes with the old file's size
+            frame = pd.read_parquet(io.BytesIO(path.read_bytes()))
         except FileNotFoundError:
             raise
         except Exception as exc:  # noqa: BLE001 - pyarrow raises several types for corrupt files
@@ -426,7 +428,7 @@ class RunDirectory:
         """(env, designer, seed) of every trial merged into evaluations.parquet."""
         if not self.evaluations_path.exists():
             return set()
-        keys = pd.read_parquet(self.evaluations_path, columns=TRIAL_KEY).drop_duplicates()
+        keys = pd.read_parquet(io.BytesIO(self.evaluations_path.read_bytes()), columns=TRIAL_KEY).drop_duplicates()
         return {(str(e), str(d), int(s)) for e, d, s in keys.itertuples(index=False, name=None)}
 
     def finish_trial(self, name: str, order: Callable[[tuple[str, str, int]], int]) -> None:
