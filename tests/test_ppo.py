@@ -16,20 +16,18 @@ import numpy as np
 import pandas as pd
 import pytest
 import torch
-from torch._dynamo.utils import counters
-from torchrl.collectors import Collector
-from torchrl.envs import EnvBase
 from typer.testing import CliRunner
 
 from gdabench.body import as_body
 from gdabench.cli import app
 from gdabench.controllers.ppo import PPO, PPOConfig, replay
+from gdabench.controllers.ppo.bodies import ArrayBodies, GymBodies
 from gdabench.controllers.ppo.evaluation import episode_score
-from gdabench.controllers.ppo.envs import BodyEnvs, box_dims
-from gdabench.controllers.ppo.networks import ActorCritic
 from gdabench.controllers.ppo.policy_file import META_FILE, WEIGHTS_FILE
 from gdabench.controllers.ppo.train import train
-from gdabench.controllers.ppo.update import LossSettings, MinibatchUpdate
+from gdabench.controllers.ppo.update import LockstepUpdate
+from gdabench.envs.voxel import engine
+from gdabench.envs.voxel.walker import WalkerBatch
 from gdabench.envs.walker.env import Walker, make_walker
 from gdabench.envs.walker.sim import WalkerPhysics
 from gdabench.errors import ConfigError
@@ -66,16 +64,21 @@ class ActionLog(gymnasium.Wrapper):
         return self.env.step(action)
 
 
+def gym(make_env):
+    """A batch maker for one body's Gymnasium environments."""
+    return lambda n: GymBodies([make_env], n)
+
+
 def test_loss_decreases_and_reward_rises_on_a_toy_task():
     config = PPOConfig(timesteps=128 * 8, eval_interval=128 * 2, n_evals=8, learning_rate=1e-3, episode_end="full")
-    result = train(config, Target, seed=0, device=torch.device("cpu"), compiled=False)
+    [result] = train(config, gym(Target), [0])
     total, value = np.array(result.losses).T
     assert len(total) == 8 and np.isfinite(total).all()
     assert total[-2:].mean() < 0.25 * total[0] and value[-2:].mean() < 0.25 * value[0]
     first, last = result.evaluations[0].mean, result.evaluations[-1].mean
     assert last > first
     assert result.reward == max(e.mean for e in result.evaluations)
-    mean_action = result.nets.policy.mean(torch.tensor([[1.0, 0.0, -1.0]]))
+    mean_action = result.nets.mean(torch.tensor([[1.0, 0.0, -1.0]]))
     assert (mean_action > 0.1).all()  # moved up from about 0, towards the range
 
 
@@ -122,19 +125,14 @@ def test_saved_policy_reloads_and_reproduces_its_reward(tmp_path):
 def test_parallel_environments_train_seeded_with_finite_rewards(monkeypatch):
     config = PPOConfig(timesteps=512, n_envs=2, eval_interval=256)  # two rollouts of 2 x 128 steps
     make_env = functools.partial(make_walker, WALKER)
-    threads, step = set(), MinibatchUpdate.__call__
-    monkeypatch.setattr(MinibatchUpdate, "__call__", lambda self, *t: threads.add(torch.get_num_threads()) or step(self, *t))
-    a = train(config, make_env, seed=5, device=torch.device("cpu"), compiled=False)
-    assert threads == {config.threads}  # closing the SerialEnv after the last rollout raises torch's thread count
-    b = train(config, make_env, seed=5, device=torch.device("cpu"), compiled=False)
+    threads, step = set(), LockstepUpdate.__call__
+    monkeypatch.setattr(LockstepUpdate, "__call__", lambda self, b: threads.add(torch.get_num_threads()) or step(self, b))
+    [a] = train(config, gym(make_env), [5])
+    assert threads == {config.threads}
+    [b] = train(config, gym(make_env), [5])
     assert a.timesteps == 512 and len(a.losses) == 2 and np.isfinite(a.losses).all()
     assert [e.scores for e in a.evaluations] == [e.scores for e in b.evaluations] and len(a.evaluations) == 3
     assert np.isfinite(a.reward) and a.reward == b.reward
-
-    # the two environments are stepped side by side, each with its own actions
-    rollout = collect(BodyEnvs(make_env, 2), ActorCritic(*box_dims(make_env()), (8,)), frames=20)
-    assert rollout.batch_size == (2, 10)
-    assert not torch.equal(rollout["next", "observation"][0], rollout["next", "observation"][1])
 
 
 class Ticks(gymnasium.Env):
@@ -155,35 +153,17 @@ class Ticks(gymnasium.Env):
         return np.array([self.t, action[0]]), float(self.t), self.t == self.length, False, {}
 
 
-class GenericBodyEnvs(BodyEnvs):
-    step_and_maybe_reset = EnvBase.step_and_maybe_reset  # TorchRL's own, through _step and _reset
-
-
-def collect(envs: BodyEnvs, nets: ActorCritic, frames: int):
-    envs.set_seed(0)
-    torch.manual_seed(0)
-    collector = Collector(envs, nets.sampler(), frames_per_batch=frames, total_frames=frames)
-    try:
-        return next(iter(collector))
-    finally:
-        collector.shutdown()
-        if not envs.is_closed:
-            envs.close()
-
-
-def test_the_lean_env_step_matches_torchrls_generic_step():
-    def two_envs():  # one env truncated by a time limit every 2 steps, one terminating every 3 steps
-        envs = iter([gymnasium.wrappers.TimeLimit(Ticks(10), max_episode_steps=2), Ticks(3)])
-        return lambda: next(envs)
-
-    nets = ActorCritic(2, 1, (4,))
-    lean, generic = collect(BodyEnvs(two_envs(), 2), nets, 14), collect(GenericBodyEnvs(two_envs(), 2), nets, 14)
-    assert set(lean.keys(True, True)) == set(generic.keys(True, True))
-    for key in generic.keys(True, True):
-        torch.testing.assert_close(lean[key], generic[key], msg=str(key))
-    assert lean["next", "truncated"][0].sum() == 3 and lean["next", "terminated"][1].sum() == 2
-    assert lean["observation"][:, 0, 0].tolist() == [0.0, 0.0]  # reset observations follow every episode end
-    assert (lean["observation"][0, 2::2, 0] == 0).all() and (lean["observation"][1, 3::3, 0] == 0).all()
+def test_a_batch_clips_actions_resets_ended_episodes_and_tells_truncation_from_termination():
+    # body 0: truncated by a time limit every 2 steps; body 1: terminates every 3 steps
+    makers = [lambda: gymnasium.wrappers.TimeLimit(Ticks(10), max_episode_steps=2), lambda: Ticks(3)]
+    batch = GymBodies(makers)
+    assert batch.reset()[:, 0].tolist() == [0.0, 0.0]
+    steps = [batch.step(np.array([[0.0], [9.0]])) for _ in range(6)]
+    assert [s.truncated.tolist() for s in steps] == [[False, False], [True, False]] * 3
+    assert [s.terminated.tolist() for s in steps] == [[False, False], [False, False], [False, True]] * 2
+    assert [s.next_obs[1, 0] for s in steps] == [1, 2, 3, 1, 2, 3]  # the last observation of an episode, for GAE
+    assert [s.obs[1, 0] for s in steps] == [1, 2, 0, 1, 2, 0]  # then the next episode's first
+    assert {s.next_obs[0, 1] for s in steps} == {0.6} and {s.next_obs[1, 1] for s in steps} == {1.6}  # clipped
 
 
 def test_an_unstable_body_is_scored_not_crashed():
@@ -196,31 +176,6 @@ def test_an_unstable_body_is_scored_not_crashed():
 def test_episode_end_conventions():
     assert episode_score([0.5, 0.25, 1.0], "full") == 1.75
     assert episode_score([0.5, 0.25, 1.0], "evogym2") == 0.75  # Evolution Gym 2.0 drops the last step's reward
-
-
-@pytest.mark.slow  # compiling takes 10-60 s on a loaded 2-core machine
-def test_compiled_step_matches_the_eager_step_and_is_reused_across_bodies():
-    settings = LossSettings(clip_range=0.1, vf_coef=0.5, ent_coef=0.01, learning_rate=1e-2, max_grad_norm=0.5)
-
-    def steps(n_obs: int, n_act: int, compiled: bool) -> dict[str, torch.Tensor]:
-        torch.manual_seed(0)
-        nets = ActorCritic(n_obs, n_act)
-        update = MinibatchUpdate(nets, settings, compiled=compiled)
-        g = torch.Generator().manual_seed(1)
-        for _ in range(3):
-            batch = [torch.randn(4, n_obs, generator=g), torch.randn(4, n_act, generator=g), torch.randn(4, generator=g), torch.randn(4, 1, generator=g), torch.randn(4, 1, generator=g)]
-            update(*batch)
-        return {k: v.detach().clone() for k, v in nets.state_dict().items()}
-
-    graphs = []
-    for n_obs, n_act in [(5, 2), (5, 2), (7, 3), (6, 4)]:  # a second body, then other layouts
-        eager, compiled = steps(n_obs, n_act, False), steps(n_obs, n_act, True)
-        graphs.append(counters["stats"]["unique_graphs"])
-        assert not torch.equal(eager["policy.log_std"], torch.zeros(n_act))  # the steps did change the parameters
-        for key in eager:
-            torch.testing.assert_close(compiled[key], eager[key], rtol=1e-4, atol=1e-6)
-    # traced once for the first layout, once more (sizes dynamic) for the second, never again
-    assert graphs[1] == graphs[0] and graphs[3] == graphs[2] == graphs[0] + 1
 
 
 @pytest.mark.parametrize(
@@ -289,3 +244,34 @@ def test_a_body_two_trials_share_is_trained_once_and_both_keep_its_policy(tmp_pa
     assert len(sorted(run.glob("artifacts/*/*/" + WEIGHTS_FILE))) == 4  # each trial has the policies of its bodies
     replayed = CliRunner().invoke(app, ["replay", str(run), "--designer", "ga[survivors=1]"], catch_exceptions=False)
     assert replayed.exit_code == 0 and "reward" in replayed.stdout, replayed.stderr
+
+
+BODIES = ["33333/33333/33333/33333/33333", "00000/44444/44444/40004/40004", "03330/03330/33333/30003/30003"]
+#: networks padded as for any 5x5 body: 36 points (74 observations), 25 actuators
+PAD_5X5 = (2 + 2 * 36, 25)
+
+
+def voxel(bodies):
+    """A batch maker for bodies on the voxel walker, one array step for all (tables padded to 5x5)."""
+    pad = engine.body_tables(["44444/44444/44444/44444/44444"])
+    return lambda n: ArrayBodies(WalkerBatch(bodies, n, pad=pad), n, 500)
+
+
+def test_a_body_learns_the_same_alone_and_in_any_batch():
+    config = PPOConfig(**SMALL, n_envs=2)
+    [alone] = train(config, voxel(BODIES[1:2]), [11], pad=PAD_5X5)
+    batch = train(config, voxel([BODIES[2], BODIES[1], BODIES[0]]), [3, 11, 4], pad=PAD_5X5)
+    assert [e.scores for e in batch[1].evaluations] == [e.scores for e in alone.evaluations]
+    assert batch[1].losses == alone.losses
+    for name, p in alone.nets.state_dict().items():
+        assert torch.equal(p, batch[1].nets.state_dict()[name]), name
+    assert batch[0].reward != alone.reward and batch[2].reward != alone.reward  # the others did learn their own
+
+
+def test_the_gymnasium_walker_and_the_batched_engine_train_a_body_identically():
+    config = PPOConfig(**SMALL)
+    [batched] = train(config, voxel(BODIES[1:2]), [2], pad=PAD_5X5)
+    make_env = lambda: gymnasium.make("gdabench/Walker-v2", body=BODIES[1])  # noqa: E731
+    [single] = train(config, gym(make_env), [2], pad=PAD_5X5)
+    assert [e.scores for e in single.evaluations] == [e.scores for e in batched.evaluations]
+    assert single.losses == batched.losses

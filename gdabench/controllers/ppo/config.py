@@ -24,9 +24,6 @@ LAPTOP_TIMESTEPS = 50_000
 EVALUATIONS_PER_TRAINING = 10
 #: how an evaluation episode is scored (see :func:`gdabench.controllers.ppo.evaluation.episode_score`)
 EPISODE_ENDS = ("evogym2", "full")
-COMPILE_CHOICES = ("auto", True, False)
-#: below this many timesteps, ``compile="auto"`` trains eagerly: compiling (5-30 s) would cost more than it saves
-COMPILE_MIN_TIMESTEPS = 20_000
 
 
 @dataclass(frozen=True)
@@ -52,7 +49,6 @@ class PPOConfig:
     episode_end: str = "evogym2"
     hidden: tuple[int, ...] = (64, 64)
     device: str = "cpu"
-    compile: bool | str = "auto"
     threads: int = 1
 
     def __post_init__(self) -> None:
@@ -88,8 +84,6 @@ class PPOConfig:
             )
         if self.episode_end not in EPISODE_ENDS:
             raise ConfigError(f"ppo: episode_end must be one of {', '.join(EPISODE_ENDS)}, got {self.episode_end!r}")
-        if self.compile not in COMPILE_CHOICES or (self.compile != "auto" and not isinstance(self.compile, bool)):
-            raise ConfigError(f"ppo: compile must be auto, true or false, got {self.compile!r}")
         hidden = (self.hidden,) if isinstance(self.hidden, int) else tuple(self.hidden)
         if not hidden or any(isinstance(h, bool) or not isinstance(h, int) or h < 1 for h in hidden):
             raise ConfigError(f"ppo: hidden must be a list of positive layer widths, got {self.hidden!r}")

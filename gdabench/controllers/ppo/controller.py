@@ -11,7 +11,6 @@ animate a body, and how a resumed run skips bodies it already trained.
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 from typing import Any, Callable
 
@@ -19,18 +18,15 @@ from ...environment import Controller, Evaluation
 from ...errors import ConfigError
 from ...params import config_signature
 from ...torch_runtime import resolve_device
-from .config import COMPILE_MIN_TIMESTEPS, PPOConfig
-from .evaluation import evaluate_policy
-from .policy_file import SavedPolicy, has_policy, load_policy, save_policy
-from .train import TrainResult, evaluation_generator, seeded_torch, train
+from .bodies import GymBodies
+from .config import PPOConfig
+from .evaluation import evaluate_policies
+from .networks import Stacked
+from .policy_file import SavedPolicy, load_policy, readable_policy, save_policy
+from .train import TrainResult, deterministic_torch, evaluation_generator, train
 
 #: settings that change how fast a policy is trained, not what it becomes
-RUNTIME_SETTINGS = ("device", "threads", "compile")
-
-
-def has_cpp_compiler() -> bool:
-    """torch.compile's CPU backend needs a C++ compiler on the PATH."""
-    return any(shutil.which(name) for name in ("g++", "c++", "clang++"))
+RUNTIME_SETTINGS = ("device", "threads")
 
 
 class PPO(Controller):
@@ -55,7 +51,6 @@ class PPO(Controller):
         episode_end: how an evaluation episode is scored: evogym2 (drops the last step's reward) or full
         hidden: sizes of the hidden layers of policy and value networks
         device: cpu, cuda, cuda:N or auto
-        compile: torch.compile the update (true, false, or auto: for long trainings on the CPU)
         threads: torch threads per training
     """
 
@@ -65,32 +60,18 @@ class PPO(Controller):
         except TypeError as exc:  # an unknown keyword
             raise ConfigError(f"ppo: {exc}") from None
         self.device = resolve_device(self.config.device, "ppo")
-        self.compiled = self._compiled()
-
-    def _compiled(self) -> bool:
-        choice = self.config.compile
-        if choice is True:
-            if self.device.type == "cpu" and not has_cpp_compiler():
-                raise ConfigError(
-                    "ppo: compile=true needs a C++ compiler (g++ or clang++) on the PATH; use compile=false"
-                )
-            return True
-        if choice is False:
-            return False
-        # auto: compiled steps only on CPU (the tested path) and when training is long enough to repay compiling
-        return self.device.type == "cpu" and self.config.timesteps >= COMPILE_MIN_TIMESTEPS and has_cpp_compiler()
 
     def fingerprint(self, seed: int) -> dict[str, Any]:
         """What determines the trained policy: a saved policy with the same fingerprint is reused."""
         settings = {k: v for k, v in self.config.as_dict().items() if k not in RUNTIME_SETTINGS}
-        return {"settings": settings, "seed": int(seed), "compiled": self.compiled}
+        return {"settings": settings, "seed": int(seed)}
 
     def evaluate(self, make_env: Callable[[], Any], *, seed: int, workdir: Path | None = None) -> Evaluation:
-        if workdir is not None and has_policy(workdir):
+        if readable_policy(workdir):
             saved = load_policy(workdir, self.device)
             if saved.meta.get("trained_with") == self.fingerprint(seed):
                 return Evaluation(replay_policy(saved, make_env), {"replayed": 1})
-        result = train(self.config, make_env, seed=seed, device=self.device, compiled=self.compiled)
+        [result] = train(self.config, lambda n: GymBodies([make_env], n), [seed], device=self.device)
         if workdir is not None:
             save_policy(workdir, result.nets, self._meta(result, seed))
         return Evaluation(result.reward, self._info(result))
@@ -104,6 +85,7 @@ class PPO(Controller):
             "timesteps": result.timesteps,
             "unstable_episodes": result.unstable_episodes,
             "diverged": result.diverged,
+            "padded": list(result.padded),
             "seconds": result.seconds,
         }
 
@@ -114,7 +96,6 @@ class PPO(Controller):
             "ppo_best_at": result.best.timesteps,
             "ppo_unstable_episodes": result.unstable_episodes,
             "ppo_diverged": int(result.diverged),
-            "ppo_compiled": int(result.compiled),
             "ppo_train_seconds": round(result.seconds["collect"] + result.seconds["update"], 3),
             "ppo_eval_seconds": round(result.seconds["evaluate"], 3),
             "replayed": 0,
@@ -135,15 +116,14 @@ def replay_policy(saved: SavedPolicy, make_env: Callable[[], Any]) -> float:
     config = PPOConfig(**saved.meta["trained_with"]["settings"])
     seed = saved.meta["trained_with"]["seed"]
     device = next(saved.nets.parameters()).device
-    with seeded_torch(seed, config.threads):
-        generator = evaluation_generator(config, seed, saved.meta["best_evaluation"], device)
-        scores = evaluate_policy(
-            saved.nets,
-            make_env,
+    with deterministic_torch(config.threads):
+        nets = Stacked([saved.nets], *saved.meta["padded"], device=device)
+        [scores] = evaluate_policies(
+            nets,
+            lambda n: GymBodies([make_env], n),
             n_evals=config.n_evals,
             episode_end=config.episode_end,
-            generator=generator,
-            device=device,
+            generators=[evaluation_generator(config, seed, saved.meta["best_evaluation"])],
         )
     return float(sum(scores) / len(scores))
 

@@ -1,4 +1,4 @@
-"""Evaluation episodes: how a trained policy is scored, the way Evolution Gym 2.0 scores it.
+"""Evaluation episodes: how trained policies are scored, the way Evolution Gym 2.0 scores them.
 
 Evolution Gym 2.0 (``examples/ppo/eval.py``) plays ``n_evals`` fresh episodes and sums each
 episode's rewards with the reward of the step that ends the episode set to zero: the
@@ -9,24 +9,24 @@ dropped), and an episode ended by an unstable simulation loses its -3 with that 
 
 Evolution Gym 2.0 samples actions while evaluating (its callback leaves ``eval_policy``'s
 ``deterministic_policy=False``), and so does gdabench by default, from a generator seeded per
-evaluation, so an evaluation is one exactly repeatable episode on the deterministic simulator
-and a saved policy replays to the reward it was scored with.  ``deterministic_eval=True``
-plays the Gaussian's mean instead; with SB3's initialisation (mean near 0, below the actuator
-range) that policy keeps every actuator at 0.6 until training has moved the mean into range.
+body and evaluation, so an evaluation is exactly repeatable on the deterministic simulator and a
+saved policy replays to the reward it was scored with.  ``deterministic_eval=True`` plays the
+Gaussian's mean instead; with SB3's initialisation (mean near 0, below the actuator range) that
+policy keeps every actuator at the lower bound until training has moved the mean into range.
+
+Every body's ``n_evals`` episodes are played side by side, all bodies of a batch in one batch of
+environments; a body's actions depend only on its own observations and generator.
 """
 
 from __future__ import annotations
 
-from typing import Any, Callable, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 import torch
 
-from .envs import clip_action
-from .networks import ActorCritic
-
-#: a safety net for environments without a time limit (Evolution Gym's episodes last 500 steps)
-MAX_EPISODE_STEPS = 10_000
+from .bodies import BodyBatch
+from .networks import Stacked
 
 
 def episode_score(rewards: Sequence[float], episode_end: str) -> float:
@@ -36,33 +36,39 @@ def episode_score(rewards: Sequence[float], episode_end: str) -> float:
     return float(np.sum(rewards))
 
 
-def evaluate_policy(
-    nets: ActorCritic,
-    make_env: Callable[[], Any],
+def as_input(obs: np.ndarray, nets: Stacked, envs_per_body: int) -> torch.Tensor:
+    """A batch's observations ``(N, width)`` as the networks' input ``(B, E, O)``."""
+    x = torch.zeros(nets.n_bodies, envs_per_body, nets.n_obs, device=nets.log_std.device)
+    x[:, :, : obs.shape[1]] = torch.from_numpy(obs.astype(np.float32)).view(nets.n_bodies, envs_per_body, -1)
+    return x
+
+
+def evaluate_policies(
+    nets: Stacked,
+    make_batch: Callable[[int], BodyBatch],
     *,
     n_evals: int,
     episode_end: str,
-    generator: torch.Generator | None = None,
-    device: torch.device | str = "cpu",
-) -> list[float]:
-    """Scores of ``n_evals`` episodes, each in a fresh environment from ``make_env``.
+    generators: Sequence[torch.Generator | None],
+) -> list[list[float]]:
+    """Per body, the scores of its ``n_evals`` episodes in fresh environments from ``make_batch(n_evals)``.
 
-    The mean action is played unless ``generator`` is given, then actions are sampled from it.
+    Body ``b`` samples its actions from ``generators[b]``, or plays its mean action where that is None.
     """
-    scores = []
-    for _ in range(n_evals):
-        env = make_env()
-        try:
-            obs, _ = env.reset()
-            rewards: list[float] = []
-            for _ in range(MAX_EPISODE_STEPS):
-                observation = torch.as_tensor(np.asarray(obs, dtype=np.float32), device=device)
-                action = nets.act(observation.unsqueeze(0), generator)[0]
-                obs, reward, terminated, truncated, _ = env.step(clip_action(env, action.cpu().numpy()))
-                rewards.append(float(reward))
-                if terminated or truncated:
-                    break
-        finally:
-            env.close()
-        scores.append(episode_score(rewards, episode_end))
-    return scores
+    batch = make_batch(n_evals)
+    try:
+        obs = batch.reset()
+        n = len(obs)
+        rewards: list[list[float]] = [[] for _ in range(n)]
+        finished = np.zeros(n, dtype=bool)
+        while not finished.all():
+            actions, _ = nets.act(as_input(obs, nets, n_evals), generators)
+            step = batch.step(actions.reshape(n, -1).cpu().numpy().astype(np.float64))
+            for i in np.flatnonzero(~finished):
+                rewards[i].append(float(step.reward[i]))
+            finished |= step.done
+            obs = step.obs
+    finally:
+        batch.close()
+    scores = [episode_score(r, episode_end) for r in rewards]
+    return [scores[b * n_evals : (b + 1) * n_evals] for b in range(nets.n_bodies)]

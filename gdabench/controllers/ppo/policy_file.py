@@ -23,7 +23,8 @@ from .networks import ActorCritic
 
 WEIGHTS_FILE = "ppo_policy.pt"
 META_FILE = "ppo_policy.json"
-FORMAT = 1
+#: 2: networks trained in lockstep batches (padded sizes in the JSON); format 1 policies are retrained
+FORMAT = 2
 
 
 @dataclass(frozen=True)
@@ -44,6 +45,16 @@ def save_policy(workdir: Path, nets: ActorCritic, meta: dict[str, Any]) -> None:
 
 def has_policy(workdir: Path | None) -> bool:
     return workdir is not None and (Path(workdir) / WEIGHTS_FILE).is_file() and (Path(workdir) / META_FILE).is_file()
+
+
+def readable_policy(workdir: Path | None) -> bool:
+    """``workdir`` holds a policy in the format this gdabench reads (one of an older format is trained again)."""
+    if not has_policy(workdir):
+        return False
+    try:
+        return json.loads((Path(workdir) / META_FILE).read_text()).get("format") == FORMAT
+    except (OSError, ValueError):
+        return False
 
 
 def load_policy(workdir: Path, device: torch.device | str = "cpu") -> SavedPolicy:

@@ -1,50 +1,45 @@
-"""PPO training of one body on TorchRL, scored as Evolution Gym 2.0 scores it.
+"""PPO training of a batch of bodies in lockstep, each scored as Evolution Gym 2.0 scores it.
 
-The loop is stable-baselines3's PPO (what Evolution Gym 2.0 runs) on TorchRL parts:
+Every body has its own policy, critic, Adam state, gradient clipping, minibatch order and random
+streams; what the bodies share is the loop, so that one array step simulates all of them and one
+batched matrix product serves all their networks.  A single body is the batch of one.  The loop is
+stable-baselines3's PPO (what Evolution Gym 2.0 runs):
 
-1. a :class:`torchrl.collectors.Collector` plays the stochastic policy for ``n_steps`` steps in
-   each of ``n_envs`` environments;
-2. if this rollout passed a multiple of the evaluation interval, the policy that collected it
-   is evaluated (SB3's callback evaluates at that step, and the policy only changes after the
-   rollout, so this is the same policy);
-3. :class:`torchrl.objectives.value.GAE` computes advantages and value targets (the value of
-   the last observation bootstraps a time-limit truncation, as SB3 does);
-4. ``n_epochs`` passes over the rollout in minibatches of ``batch_size`` drawn without
-   replacement from a TorchRL replay buffer, each one ClipPPOLoss step
-   (:mod:`~gdabench.controllers.ppo.update`);
-5. after the last rollout the final policy is evaluated too.
+1. play the stochastic policies for ``n_steps`` steps in each body's ``n_envs`` environments;
+2. if this rollout passed a multiple of the evaluation interval, evaluate the policies that
+   collected it (SB3's callback evaluates at that step, and a policy only changes after the rollout);
+3. advantages and value targets by TorchRL's functional GAE (the value of the last observation
+   bootstraps a time-limit truncation, as SB3 does);
+4. ``n_epochs`` passes over each body's rollout in minibatches of ``batch_size``, in an order drawn
+   from the body's own generator, each one lockstep step (:mod:`~gdabench.controllers.ppo.update`);
+5. after the last rollout, evaluate the final policies too.
 
-The reward of the body is the best mean evaluation score, and the policy that reached it is
-kept.  Every random draw comes from the seed: network initialisation and action sampling from
-``torch.manual_seed`` inside a forked RNG state (the caller's RNG is untouched), minibatches
-from their own ``torch.Generator``.
+A body's reward is its best mean evaluation score, and the policy that reached it is kept.  A body
+whose parameters stop being finite is put back to its last finite policy and trained no further.
+
+What is hand-written and why: the rollout loop and minibatching (TorchRL's collector and replay
+buffer hold one policy; here each body draws from its own streams), the loss
+(:mod:`~gdabench.controllers.ppo.update`) and the stacked networks
+(:mod:`~gdabench.controllers.ppo.networks`).  GAE is TorchRL's.
 """
 
 from __future__ import annotations
 
 import contextlib
-import copy
-import logging
 import time
 from dataclasses import dataclass
-from typing import Any, Callable, Iterator
+from typing import Callable, Iterator, Sequence
 
+import numpy as np
 import torch
-from torchrl.collectors import Collector
-from torchrl.data import LazyTensorStorage, ReplayBuffer
-from torchrl.data.replay_buffers import SamplerWithoutReplacement
-from torchrl.objectives.value import GAE
+from torchrl.objectives.value.functional import generalized_advantage_estimate
 
 from ...torch_runtime import torch_threads
+from .bodies import BodyBatch
 from .config import PPOConfig
-from .envs import BodyEnvs, box_dims
-from .evaluation import evaluate_policy
-from .networks import ActorCritic
-from .update import BATCH_KEYS, LossSettings, MinibatchUpdate
-
-# TorchRL logs every storage it initialises at INFO level: once per rollout buffer, per body
-logging.getLogger("torchrl").setLevel(logging.WARNING)
-
+from .evaluation import as_input, evaluate_policies
+from .networks import ActorCritic, Stacked
+from .update import LockstepUpdate, LossSettings, Minibatch
 
 PHASES = ("collect", "update", "evaluate")
 
@@ -80,21 +75,20 @@ class Evaluated:
 
 @dataclass
 class TrainResult:
-    """What a training produced: the best policy and how it got there."""
+    """What one body's training produced: its best policy and how it got there."""
 
     nets: ActorCritic
+    #: the padding its networks were trained with (observations, actions): replays pad the same way
+    padded: tuple[int, int]
     best: Evaluated
     best_index: int
     evaluations: list[Evaluated]
     timesteps: int
-    #: per rollout, the mean over its minibatch steps of [PPO loss (ClipPPOLoss's objective +
-    #: value + entropy terms), its value term]
+    #: per rollout, the mean over its minibatch steps of [PPO loss, its value term]
     losses: list[list[float]]
     unstable_episodes: int
     diverged: bool
-    compiled: bool
-    #: wall-clock seconds per phase (PHASES), of the first minibatch step (``warmup``: compiling
-    #: happens there) and in ``total``
+    #: wall-clock seconds per phase (PHASES) and in ``total``, of the whole batch
     seconds: dict[str, float]
     #: CPU seconds of this process per phase (the machine may be shared: wall time is not all ours)
     cpu_seconds: dict[str, float]
@@ -105,24 +99,34 @@ class TrainResult:
 
 
 @contextlib.contextmanager
-def seeded_torch(seed: int, threads: int) -> Iterator[None]:
-    """Seed torch's global RNG and pin threads and deterministic kernels, restoring all after."""
-    previous_deterministic = torch.are_deterministic_algorithms_enabled()
-    previous_warn = torch.is_deterministic_algorithms_warn_only_enabled()
-    with torch.random.fork_rng(devices=[]), torch_threads(threads):
-        torch.manual_seed(seed)
+def deterministic_torch(threads: int) -> Iterator[None]:
+    """Pin threads and deterministic kernels, restoring both after."""
+    previous = torch.are_deterministic_algorithms_enabled(), torch.is_deterministic_algorithms_warn_only_enabled()
+    with torch_threads(threads):
         torch.use_deterministic_algorithms(True, warn_only=True)
         try:
             yield
         finally:
-            torch.use_deterministic_algorithms(previous_deterministic, warn_only=previous_warn)
+            torch.use_deterministic_algorithms(previous[0], warn_only=previous[1])
 
 
-def evaluation_generator(config: PPOConfig, seed: int, index: int, device: torch.device) -> torch.Generator | None:
-    """The action sampler of evaluation ``index`` (None: deterministic evaluation)."""
+def initial_networks(seed: int, n_obs: int, n_act: int, hidden: Sequence[int]) -> ActorCritic:
+    """A body's networks as SB3 initialises them, from torch's global RNG seeded with ``seed``."""
+    torch.manual_seed(seed)
+    return ActorCritic(n_obs, n_act, hidden)
+
+
+def streams(seed: int) -> tuple[torch.Generator, torch.Generator]:
+    """A body's action sampler and minibatch order: independent generators derived from its seed."""
+    sampling, order = np.random.SeedSequence(seed).generate_state(2, dtype=np.uint64)
+    return torch.Generator().manual_seed(int(sampling)), torch.Generator().manual_seed(int(order))
+
+
+def evaluation_generator(config: PPOConfig, seed: int, index: int) -> torch.Generator | None:
+    """The action sampler of a body's evaluation ``index`` (None: deterministic evaluation)."""
     if config.deterministic_eval:
         return None
-    return torch.Generator(device=device).manual_seed(seed * 1_000_003 + index)
+    return torch.Generator().manual_seed(seed * 1_000_003 + index)
 
 
 def loss_settings(config: PPOConfig) -> LossSettings:
@@ -132,118 +136,189 @@ def loss_settings(config: PPOConfig) -> LossSettings:
         ent_coef=config.ent_coef,
         learning_rate=config.learning_rate,
         max_grad_norm=config.max_grad_norm,
-        hidden=config.hidden,
     )
 
 
-def _dims(make_env: Callable[[], Any]) -> tuple[int, int]:
-    env = make_env()
-    try:
-        return box_dims(env)
-    finally:
-        env.close()
+class _Best:
+    """Each body's evaluations and the parameters of its best one."""
+
+    def __init__(self, nets: Stacked):
+        self.nets = nets
+        self.evaluations: list[list[Evaluated]] = [[] for _ in range(nets.n_bodies)]
+        self.index = [-1] * nets.n_bodies
+        self.params = nets.snapshot()
+
+    def add(self, timesteps: int, scores: list[list[float]]) -> None:
+        improved = torch.zeros(self.nets.n_bodies, dtype=torch.bool)
+        for b, body_scores in enumerate(scores):
+            history = self.evaluations[b]
+            history.append(Evaluated(timesteps, body_scores))
+            if self.index[b] < 0 or history[-1].mean > history[self.index[b]].mean:
+                self.index[b] = len(history) - 1
+                improved[b] = True
+        with torch.no_grad():
+            for saved, p in zip(self.params, self.nets.params):
+                saved[improved] = p[improved]
 
 
 def train(
-    config: PPOConfig, make_env: Callable[[], Any], *, seed: int, device: torch.device, compiled: bool
-) -> TrainResult:
-    """Train PPO on the body behind ``make_env``; see the module docstring."""
+    config: PPOConfig,
+    make_batch: Callable[[int], BodyBatch],
+    seeds: Sequence[int],
+    *,
+    pad: tuple[int, int] | None = None,
+    device: torch.device | str = "cpu",
+    on_rollout: Callable[[int], None] | None = None,
+) -> list[TrainResult]:
+    """Train PPO on the bodies of ``make_batch`` (body ``b`` from ``seeds[b]``); see the module docstring.
+
+    ``make_batch(e)`` builds fresh environments, ``e`` per body.  ``pad`` (observations, actions) pads
+    the networks beyond the batch's widest body, so that a body learns the same in any batch padded
+    alike.  ``on_rollout(timesteps)`` is called after every rollout with each body's timesteps so far.
+    """
     start = time.perf_counter()
-    with seeded_torch(seed, config.threads):
-        n_obs, n_act = _dims(make_env)
-        nets = ActorCritic(n_obs, n_act, config.hidden).to(device)
-        gae = GAE(gamma=config.gamma, lmbda=config.gae_lambda, value_network=nets.critic(), average_gae=False)
-        update = MinibatchUpdate(nets, loss_settings(config), compiled=compiled)
-        buffer = ReplayBuffer(
-            storage=LazyTensorStorage(config.rollout_steps, device=device),
-            sampler=SamplerWithoutReplacement(),
-            generator=torch.Generator().manual_seed(seed),
-            batch_size=config.rollout_steps,
-        )
-        envs = BodyEnvs(make_env, config.n_envs)
-        envs.set_seed(seed)
-        collector = Collector(
-            envs,
-            nets.sampler(),
-            frames_per_batch=config.rollout_steps,
-            total_frames=config.rollouts * config.rollout_steps,
-            # on CPU no device at all: the collector then copies nothing between steps
-            policy_device=None if device.type == "cpu" else device,
-            env_device=None if device.type == "cpu" else "cpu",
-            storing_device=None if device.type == "cpu" else device,
-            auto_register_policy_transforms=False,  # the policy needs no transform
-            track_traj_ids=False,  # PPO needs none (GAE reads the done flags)
-        )
-        evaluations: list[Evaluated] = []
-        best_index, best_state = -1, None
-
-        def evaluate(timesteps: int) -> None:
-            nonlocal best_index, best_state
-            generator = evaluation_generator(config, seed, len(evaluations), device)
-            scores = evaluate_policy(
-                nets,
-                make_env,
-                n_evals=config.n_evals,
-                episode_end=config.episode_end,
-                generator=generator,
-                device=device,
-            )
-            evaluations.append(Evaluated(timesteps, scores))
-            if best_index < 0 or evaluations[-1].mean > evaluations[best_index].mean:
-                best_index, best_state = len(evaluations) - 1, copy.deepcopy(nets.state_dict())
-
-        interval = config.evaluation_interval
-        steps, diverged = 0, False
-        losses: list[list[float]] = []
-        clock = PhaseClock()
-        rollouts = iter(collector)
+    device = torch.device(device)
+    clock = PhaseClock()
+    # torch's global RNG is used only by network initialisation (seeded per body): the caller's is kept
+    with torch.random.fork_rng(devices=[]), deterministic_torch(config.threads):
+        batch = make_batch(config.n_envs)
         try:
-            while True:
-                with clock("collect"):
-                    rollout = next(rollouts, None)
-                if rollout is None:
-                    break
-                before, steps = steps, steps + rollout.numel()
-                if steps // interval > before // interval:
-                    with clock("evaluate"):
-                        evaluate(steps)
-                with clock("update"):
-                    last_finite = copy.deepcopy(nets.state_dict())
-                    with torch.no_grad():
-                        gae(rollout)
-                    buffer.empty()
-                    buffer.extend(rollout.reshape(-1).select(*BATCH_KEYS))
-                    total, count = torch.zeros(2, device=device), 0
-                    for _ in range(config.n_epochs):
-                        epoch = buffer.sample()  # the whole rollout in a random order
-                        columns = [epoch[key].split(config.batch_size) for key in BATCH_KEYS]
-                        for minibatch in zip(*columns):
-                            total += update(*minibatch)
-                            count += 1
-                    losses.append((total / count).tolist())
-                if not all(torch.isfinite(p).all() for p in nets.parameters()):
-                    diverged = True  # the last finite policy gets its final evaluation
-                    nets.load_state_dict(last_finite)
-                    break
-            with clock("evaluate"):
-                evaluate(steps)
+            batch.seed(seeds)
+            n_obs, n_act = pad or (max(batch.obs_sizes), max(batch.act_sizes))
+            init = [initial_networks(s, o, a, config.hidden) for s, o, a in zip(seeds, batch.obs_sizes, batch.act_sizes)]
+            nets = Stacked(init, max(n_obs, *batch.obs_sizes), max(n_act, *batch.act_sizes), device)
+            run = _Training(config, nets, batch, seeds, clock, on_rollout)
+            run.loop(make_batch)
         finally:
-            collector.shutdown()
-            if not envs.is_closed:
-                envs.close()
-        assert best_state is not None, "the first evaluation sets it, and the last rollout is always evaluated"
-        nets.load_state_dict(best_state)
-    return TrainResult(
-        nets=nets,
-        best=evaluations[best_index],
-        best_index=best_index,
-        evaluations=evaluations,
-        timesteps=steps,
-        losses=losses,
-        unstable_episodes=envs.unstable_episodes,
-        diverged=diverged,
-        compiled=compiled,
-        seconds={**clock.wall, "warmup": update.first_seconds or 0.0, "total": time.perf_counter() - start},
-        cpu_seconds=dict(clock.cpu),
-    )
+            batch.close()
+        seconds = {**clock.wall, "total": time.perf_counter() - start}
+        return [
+            TrainResult(
+                nets=nets.body(b, run.best.params),
+                padded=(nets.n_obs, nets.n_act),
+                best=run.best.evaluations[b][run.best.index[b]],
+                best_index=run.best.index[b],
+                evaluations=run.best.evaluations[b],
+                timesteps=run.steps,
+                losses=[row[b] for row in run.losses],
+                unstable_episodes=int(run.unstable[b]),
+                diverged=bool(run.diverged[b]),
+                seconds=seconds,
+                cpu_seconds=dict(clock.cpu),
+            )
+            for b in range(nets.n_bodies)
+        ]
 
+
+class _Training:
+    """The state of one lockstep training (see :func:`train`)."""
+
+    def __init__(
+        self,
+        config: PPOConfig,
+        nets: Stacked,
+        batch: BodyBatch,
+        seeds: Sequence[int],
+        clock: PhaseClock,
+        on_rollout: Callable[[int], None] | None,
+    ):
+        self.config, self.nets, self.batch, self.seeds, self.clock = config, nets, batch, list(seeds), clock
+        self.on_rollout = on_rollout
+        self.update = LockstepUpdate(nets, loss_settings(config))
+        generators = [streams(s) for s in seeds]
+        self.sampling = [g for g, _ in generators]
+        self.order = [g for _, g in generators]
+        self.best = _Best(nets)
+        self.steps = 0
+        self.losses: list[list[list[float]]] = []
+        self.unstable = np.zeros(nets.n_bodies, dtype=np.int64)
+        self.diverged = torch.zeros(nets.n_bodies, dtype=torch.bool)
+
+    def evaluate(self, make_batch: Callable[[int], BodyBatch]) -> None:
+        index = len(self.best.evaluations[0])
+        generators = [evaluation_generator(self.config, s, index) for s in self.seeds]
+        with self.clock("evaluate"):
+            scores = evaluate_policies(
+                self.nets, make_batch, n_evals=self.config.n_evals, episode_end=self.config.episode_end,
+                generators=generators,
+            )
+            self.best.add(self.steps, scores)
+
+    def loop(self, make_batch: Callable[[int], BodyBatch]) -> None:
+        config, interval = self.config, self.config.evaluation_interval
+        obs = self.batch.reset()
+        for _ in range(config.rollouts):
+            with self.clock("collect"):
+                rollout, obs = self.collect(obs)
+            before, self.steps = self.steps, self.steps + config.rollout_steps
+            if self.steps // interval > before // interval:
+                self.evaluate(make_batch)
+            with self.clock("update"):
+                self.learn(rollout)
+            if self.on_rollout is not None:
+                self.on_rollout(self.steps)
+            if self.diverged.all():
+                break
+        self.evaluate(make_batch)
+
+    def collect(self, obs: np.ndarray) -> tuple[dict[str, torch.Tensor], np.ndarray]:
+        """``n_steps`` steps of every environment; tensors ``(T, B, E, ...)``."""
+        nets, T, E = self.nets, self.config.n_steps, self.config.n_envs
+        per_body = np.repeat(np.arange(nets.n_bodies), E)
+        keys = ("obs", "action", "log_prob", "reward", "next_obs", "done", "terminated")
+        out: dict[str, list[torch.Tensor]] = {k: [] for k in keys}
+        for _ in range(T):
+            x = as_input(obs, nets, E)
+            action, log_prob = nets.act(x, self.sampling)
+            step = self.batch.step(action.reshape(len(obs), -1).cpu().numpy().astype(np.float64))
+            np.add.at(self.unstable, per_body[step.unstable], 1)
+            for key, value in (
+                ("obs", x), ("action", action), ("log_prob", log_prob),
+                ("reward", torch.from_numpy(step.reward.astype(np.float32)).view(nets.n_bodies, E)),
+                ("next_obs", as_input(step.next_obs, nets, E)),
+                ("done", torch.from_numpy(step.done).view(nets.n_bodies, E)),
+                ("terminated", torch.from_numpy(step.terminated).view(nets.n_bodies, E)),
+            ):
+                out[key].append(value)
+            obs = step.obs
+        return {k: torch.stack(v) for k, v in out.items()}, obs
+
+    def learn(self, rollout: dict[str, torch.Tensor]) -> None:
+        config, nets = self.config, self.nets
+        B = nets.n_bodies
+        T, _, E = rollout["reward"].shape
+        device = nets.log_std.device
+
+        def per_body(t: torch.Tensor) -> torch.Tensor:  # (T, B, E, ...) -> (B, E * T, ...), env-major
+            return t.transpose(0, 1).transpose(1, 2).reshape(B, E * T, *t.shape[3:]).to(device)
+
+        obs, next_obs = per_body(rollout["obs"]), per_body(rollout["next_obs"])
+        with torch.no_grad():
+            value, next_value = nets.value(obs), nets.value(next_obs)
+
+            def trajectories(t: torch.Tensor) -> torch.Tensor:  # (B, E * T) -> (B * E, T, 1) for GAE
+                return t.reshape(B * E, T, 1)
+
+            advantage, _ = generalized_advantage_estimate(
+                config.gamma, config.gae_lambda, trajectories(value), trajectories(next_value),
+                trajectories(per_body(rollout["reward"])), trajectories(per_body(rollout["done"])),
+                trajectories(per_body(rollout["terminated"])),
+            )
+            advantage = advantage.reshape(B, E * T)
+        samples = Minibatch(obs, per_body(rollout["action"]), per_body(rollout["log_prob"]), advantage, advantage + value)
+        last_finite = nets.snapshot()
+        rows = torch.arange(B, device=device).unsqueeze(1)
+        total = torch.zeros(B, 2, device=device)
+        count = 0
+        for _ in range(config.n_epochs):
+            order = torch.stack([torch.randperm(E * T, generator=g) for g in self.order]).to(device)
+            for chunk in order.split(config.batch_size, dim=1):
+                total += self.update(Minibatch(*(getattr(samples, f)[rows, chunk] for f in Minibatch.__dataclass_fields__)))
+                count += 1
+                if self.diverged.any():  # frozen bodies stay where they diverged
+                    nets.restore(last_finite, self.diverged)
+        self.losses.append((total / count).tolist())
+        broken = ~nets.finite() & ~self.diverged
+        if broken.any():
+            nets.restore(last_finite, broken)  # the last finite policy gets the remaining evaluations
+            self.diverged |= broken

@@ -48,9 +48,20 @@ class WalkerBatch:
         self.state = engine.reset(self.tables, self.body_index)
         self.done = np.zeros(len(self.body_index), dtype=bool)
 
+    #: every action is clipped into this range (Evolution Gym's actuator ratios)
+    action_bounds = (MIN_RATIO, MAX_RATIO)
+
     @property
     def num_envs(self) -> int:
         return len(self.body_index)
+
+    @property
+    def obs_sizes(self) -> list[int]:
+        return [self.tables.obs_size(b) for b in range(len(self.bodies))]
+
+    @property
+    def act_sizes(self) -> list[int]:
+        return [int(n) for n in self.tables.n_act[: len(self.bodies)]]
 
     def reset(self, mask: np.ndarray | None = None) -> np.ndarray:
         """Put environments (all, or where ``mask``) back at rest; returns every observation."""
