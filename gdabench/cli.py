@@ -25,7 +25,7 @@ from .body import parse_shape
 from .config import Experiment, PluginChoice, parse_params, parse_seeds
 from .errors import ConfigError, GdabenchError, RunFailure, Terminated
 from .execution.options import Execution
-from .experiment_file import ExperimentFile, load as load_experiment
+from .experiment_file import EXECUTION_KEYS, ExperimentFile, load as load_experiment
 from .loggers import make_logger
 from .plugins import KINDS, registry
 from .progress import ProgressDisplay
@@ -187,6 +187,7 @@ class RunOptions:
     controller_param: Optional[list[str]] = None
     jobs: Optional[int] = None
     workers: int = 1
+    batch: Optional[int] = None
     executor: str = "local"
     ray_address: Optional[str] = None
     timeout: Optional[float] = None
@@ -263,7 +264,7 @@ class RunOptions:
 
     def execution(self, base: ExperimentFile) -> Execution:
         values = {**base.execution}
-        for name in ("jobs", "workers", "executor", "timeout", "ray_address", "cache"):
+        for name in EXECUTION_KEYS:
             if name in self.explicit or name not in values:
                 values[name] = getattr(self, name)
         if values["cache"] is not None:
@@ -303,6 +304,10 @@ RUN_OPTIONS: dict[str, Any] = {
     ),
     "workers": _option(
         "--workers", help="Evaluation processes per trial (default 1: evaluate in the trial's own process)."
+    ),
+    "batch": _option(
+        "--batch",
+        help="Bodies evaluated in one call, at most (default: the controller's; ppo learns a generation in lockstep).",
     ),
     "executor": _option("--executor", help="local (processes on this machine) or ray (actors on a Ray cluster)."),
     "ray_address": _option(

@@ -8,9 +8,10 @@ or defines how it acts and reports the reward it reaches.
 from __future__ import annotations
 
 import abc
+import functools
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable, ClassVar, Mapping, cast
+from typing import TYPE_CHECKING, Any, Callable, ClassVar, Mapping, Sequence, cast
 
 from .body import DEFAULT_SHAPE, Body
 
@@ -26,8 +27,30 @@ class Evaluation:
     info: Mapping[str, Any] = field(default_factory=dict)
 
 
+@dataclass(frozen=True)
+class Bodies:
+    """A batch of bodies as a controller sees them (:meth:`Controller.evaluate_bodies`)."""
+
+    #: per body, a factory of fresh Gymnasium environments of it
+    make_envs: Sequence[Callable[[], Any]]
+    #: ``make_batch(indices, n)``: ``n`` environments of each of those bodies as one
+    #: :class:`~gdabench.envs.batched.BodyBatch`, stepped in one call; None where the environment has no
+    #: array simulator (a controller then batches ``make_envs``' environments itself)
+    make_batch: Callable[[Sequence[int], int], Any] | None = None
+    #: (observations, actions) that every batch of this environment is padded to, so that what a
+    #: controller computes for a body does not depend on which bodies share its batch; None: none
+    pad: tuple[int, int] | None = None
+
+    def __len__(self) -> int:
+        return len(self.make_envs)
+
+
 class Controller(abc.ABC):
     """Makes a body act in a Gymnasium environment and returns the reward it reaches."""
+
+    #: bodies the harness hands :meth:`evaluate_bodies` in one call, at most, unless the run says otherwise
+    #: (``--batch``); 1 unless the controller gains from having several together
+    bodies_at_once: ClassVar[int] = 1
 
     @abc.abstractmethod
     def evaluate(self, make_env: Callable[[], Any], *, seed: int, workdir: Path | None = None) -> Evaluation:
@@ -36,6 +59,17 @@ class Controller(abc.ABC):
         ``workdir``, when given, is a directory (created on demand by whoever writes to it) where
         the controller may keep artifacts such as a trained policy.
         """
+
+    def evaluate_bodies(
+        self, bodies: Bodies, *, seeds: Sequence[int], workdirs: Sequence[Path | None]
+    ) -> list[Evaluation | BaseException]:
+        """Score a batch of bodies (part of a generation); entry ``i`` is body ``i``'s evaluation, or the
+        exception that failed it, never the batch's.  Override to learn the bodies together; the default
+        scores them one at a time with :meth:`evaluate`."""
+        return [
+            _caught(functools.partial(self.evaluate, make_env, seed=seed, workdir=workdir))
+            for make_env, seed, workdir in zip(bodies.make_envs, seeds, workdirs)
+        ]
 
     def evaluation_strategy(self) -> EvaluationStrategy | None:
         """How a whole generation is evaluated (see :mod:`gdabench.execution.strategy`); None:
@@ -54,6 +88,9 @@ class Environment(abc.ABC):
     #: ``gdabench/Walker-v1``); recorded in every result row and in ``run.json`` so that runs made
     #: before a change of dynamics stay interpretable.  None: the environment declares no version.
     version: str | None = None
+    #: bodies the harness hands :meth:`evaluate_bodies` in one call, at most, unless the run says otherwise
+    #: (``--batch``); with a controller, the controller's figure is used instead
+    bodies_at_once: ClassVar[int] = 1
 
     def __init__(self, *, shape: tuple[int, int] = DEFAULT_SHAPE):
         self.shape: tuple[int, int] = cast("tuple[int, int]", tuple(shape))
@@ -77,6 +114,22 @@ class Environment(abc.ABC):
     ) -> float | Evaluation:
         """Score a valid body; ``seed`` drives any randomness of the evaluation."""
 
+    def evaluate_bodies(
+        self,
+        bodies: Sequence[Body],
+        *,
+        seeds: Sequence[int],
+        controller: Controller | None = None,
+        workdirs: Sequence[Path | None],
+    ) -> list[float | Evaluation | BaseException]:
+        """Score a batch of valid bodies (a generation's, or an executor's share of it): entry ``i`` is
+        body ``i``'s result, or the exception that failed it.  The harness calls this; the default scores
+        the bodies one at a time with :meth:`evaluate`.  Override it to simulate them together."""
+        return [
+            _caught(functools.partial(self.evaluate, body, seed=seed, controller=controller, workdir=workdir))
+            for body, seed, workdir in zip(bodies, seeds, workdirs)
+        ]
+
     def render_frames(
         self, body: Body, *, seed: int, controller: Controller | None = None, workdir: Path | None = None
     ) -> list[Any] | None:
@@ -87,3 +140,10 @@ class Environment(abc.ABC):
         """
         return None
 
+
+def _caught(call: Callable[[], Any]) -> Any:
+    """``call()``, or the exception it raised (``sys.exit`` included): one body's failure is its own."""
+    try:
+        return call()
+    except (Exception, SystemExit) as exc:  # noqa: BLE001 - a failing evaluation is data, not a crash
+        return exc

@@ -17,6 +17,7 @@ any run can be repeated exactly); options given on the command line override the
     [execution]
     jobs = 2
     workers = 1
+    batch = 25                                      # bodies per evaluation call (default: the controller's)
     executor = "local"                              # or "ray", with ray_address
     timeout = 600
     cache = "cache"
@@ -39,7 +40,7 @@ from .errors import ConfigError, GdabenchError
 
 KEYS = ("designers", "env", "envs", "suite", "controller", "shape", "population", "budget", "seeds", "repetitions",
         "stop_at_optimum", "out", "execution")  # fmt: skip
-EXECUTION_KEYS = ("jobs", "workers", "executor", "timeout", "ray_address", "cache")
+EXECUTION_KEYS = ("jobs", "workers", "batch", "executor", "timeout", "ray_address", "cache")
 
 
 @dataclass

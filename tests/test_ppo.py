@@ -21,7 +21,7 @@ from typer.testing import CliRunner
 from gdabench.body import as_body
 from gdabench.cli import app
 from gdabench.controllers.ppo import PPO, PPOConfig, replay
-from gdabench.controllers.ppo.bodies import ArrayBodies, GymBodies
+from gdabench.envs.batched import ArrayBodies, GymBodies
 from gdabench.controllers.ppo.evaluation import episode_score
 from gdabench.controllers.ppo.policy_file import META_FILE, WEIGHTS_FILE
 from gdabench.controllers.ppo.train import train
@@ -244,6 +244,19 @@ def test_a_body_two_trials_share_is_trained_once_and_both_keep_its_policy(tmp_pa
     assert len(sorted(run.glob("artifacts/*/*/" + WEIGHTS_FILE))) == 4  # each trial has the policies of its bodies
     replayed = CliRunner().invoke(app, ["replay", str(run), "--designer", "ga[survivors=1]"], catch_exceptions=False)
     assert replayed.exit_code == 0 and "reward" in replayed.stdout, replayed.stderr
+
+
+def test_a_generation_trains_in_lockstep_through_the_harness_with_the_table_of_body_by_body(tmp_path):
+    args = ["compare", "--designers", "random", "--env", "walker", "--controller", "ppo", "-C", "timesteps=128",
+            "--budget", "3", "--population", "3", "-q", "--no-report"]
+    tables = {}
+    for name, extra in {"lockstep": [], "one at a time": ["--batch", "1"]}.items():
+        result = CliRunner().invoke(app, [*args, "--out", str(tmp_path / name), *extra], catch_exceptions=False)
+        assert result.exit_code == 0, result.stderr
+        tables[name] = pd.read_parquet(tmp_path / name / "evaluations.parquet")
+    assert tables["lockstep"]["ppo_batch"].tolist() == [3, 3, 3] and tables["one at a time"]["ppo_batch"].tolist() == [1, 1, 1]
+    assert tables["lockstep"]["reward"].tolist() == tables["one at a time"]["reward"].tolist()
+    assert tables["lockstep"]["body"].tolist() == tables["one at a time"]["body"].tolist()
 
 
 BODIES = ["33333/33333/33333/33333/33333", "00000/44444/44444/40004/40004", "03330/03330/33333/30003/30003"]

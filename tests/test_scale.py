@@ -162,6 +162,46 @@ def test_dead_worker_is_replaced_and_others_keep_their_results(reg):
     assert [o.reward for o in again] == [6.0, 8.0]
 
 
+# -- the generation seam: bodies in batches -------------------------------------------------------
+def batched_experiment(**params) -> Experiment:
+    return Experiment(designers=(PluginChoice("ga"),), envs=PluginChoice("batched", params), population=10, budget=30)
+
+
+def test_a_generation_goes_to_the_environment_in_batches_and_one_bodys_failure_is_its_own(tmp_path, reg):
+    first = compare(batched_experiment(), tmp_path / "plain", reg=reg).load_evaluations()
+    first = first.query("generation == 0")["body"].tolist()
+    exp = batched_experiment(at_once=4, raise_on=[first[1]], nan_on=[first[6]])
+    serial = compare(exp, tmp_path / "serial", reg=reg).load_evaluations()
+    g0 = serial[serial["generation"] == 0]
+    # the environment's 4 at a time: 10 new bodies in calls of 4, 4 and 2, in order (an error row has no info)
+    assert g0["batch"].fillna(0).astype(int).tolist() == [4, 0] + [4] * 6 + [2] * 2
+    assert g0["status"].tolist() == ["ok", "error", "ok", "ok", "ok", "ok", "error", "ok", "ok", "ok"]
+    assert g0["message"].iloc[1] == f"RuntimeError: simulator exploded on {first[1]}"
+    assert g0["message"].iloc[6].startswith("environment returned a non-finite reward")
+    ok = serial[serial["status"] == "ok"]
+    assert (ok["reward"] == ok["body"].map(voxel_sum)).all()
+    # workers share a generation's bodies evenly; --batch caps a call; the table is the same everywhere
+    for name, execution, sizes in [
+        ("workers", Execution(workers=2), [4] * 8 + [1] * 2),  # 8 bodies for 2 workers, then 2
+        ("batch 3", Execution(batch=3), [3] * 9 + [1]),
+        ("batch 1", Execution(workers=2, batch=1), [1] * 10),
+    ]:
+        frame = compare(exp, tmp_path / name, reg=reg, execution=execution).load_evaluations()
+        sizes[1] = 0
+        assert frame[frame["generation"] == 0]["batch"].fillna(0).astype(int).tolist() == sizes, name
+        pd.testing.assert_frame_equal(table(tmp_path / name, drop=["batch"]), table(tmp_path / "serial", drop=["batch"]))
+
+
+def test_a_batch_that_fails_as_a_whole_fails_its_bodies_only(tmp_path, reg):
+    first = compare(batched_experiment(), tmp_path / "plain", reg=reg).load_evaluations()
+    first = first.query("generation == 0")["body"].tolist()
+    frame = compare(batched_experiment(at_once=4, fail_batch_on=[first[5]]), tmp_path / "run", reg=reg).load_evaluations()
+    g0 = frame[frame["generation"] == 0]
+    assert g0["status"].tolist() == ["ok"] * 4 + ["error"] * 4 + ["ok"] * 2
+    assert set(g0["message"].iloc[4:8]) == {"RuntimeError: the batch of 4 failed"}
+    assert (frame["generation"].max() >= 2) and (frame["status"] == "ok").sum() == 26
+
+
 def test_a_trial_whose_every_evaluation_failed_says_so_and_exits_1(tmp_path, faulty_site):
     args = ["compare", "-d", "random", "--env", "faulty[raise_always=true],simple", "--budget", "50", "--jobs", "1", "-q", "--no-report"]
     result = cli(*args, "--out", str(tmp_path / "run"), site=faulty_site)

@@ -12,12 +12,12 @@ import abc
 import functools
 import math
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Sequence
 
 import gymnasium
 
 from ..body import Body
-from ..environment import Controller, Environment, Evaluation
+from ..environment import Bodies, Controller, Environment, Evaluation
 from ..errors import ConfigError
 
 
@@ -37,10 +37,29 @@ class ControlledEnvironment(Environment):
             raise ConfigError(f"{type(self).__name__} needs a controller: add --controller NAME")
         return controller
 
+    def bodies(self, bodies: Sequence[Body]) -> Bodies:
+        """``bodies`` as a controller sees them: Gymnasium environments of each.  Environments with an
+        array simulator add it here (``make_batch``) and the padding every batch shares."""
+        return Bodies([functools.partial(self.make_env, body) for body in bodies])
+
     def evaluate(
         self, body: Body, *, seed: int, controller: Controller | None = None, workdir: Path | None = None
-    ) -> Evaluation:
-        return self.require(controller).evaluate(functools.partial(self.make_env, body), seed=seed, workdir=workdir)
+    ) -> float | Evaluation:
+        [result] = self.evaluate_bodies([body], seeds=[seed], controller=controller, workdirs=[workdir])
+        if isinstance(result, BaseException):
+            raise result
+        return result
+
+    def evaluate_bodies(
+        self,
+        bodies: Sequence[Body],
+        *,
+        seeds: Sequence[int],
+        controller: Controller | None = None,
+        workdirs: Sequence[Path | None],
+    ) -> list[float | Evaluation | BaseException]:
+        """The controller scores the bodies, together where it can (:meth:`Controller.evaluate_bodies`)."""
+        return list(self.require(controller).evaluate_bodies(self.bodies(bodies), seeds=seeds, workdirs=workdirs))
 
     def render_frames(
         self, body: Body, *, seed: int, controller: Controller | None = None, workdir: Path | None = None

@@ -1,6 +1,6 @@
 """Execution: evaluating bodies and running trials, in this process, local processes or on Ray.
 
-* :mod:`.evaluation`: scoring one body, every failure turned into a recorded outcome;
+* :mod:`.evaluation`: scoring a batch of bodies, every failure turned into a recorded outcome;
 * :mod:`.executor`, :mod:`.pool`, :mod:`.ray`: evaluation executors (serial, a supervised pool
   of local processes, Ray actors), chosen by :func:`make_executor` from the :class:`Execution`
   options (:mod:`.options`);

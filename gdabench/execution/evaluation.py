@@ -1,10 +1,13 @@
-"""Evaluating one body, with every failure turned into a recorded outcome.
+"""Evaluating a batch of bodies, with every failure turned into a recorded outcome.
 
-This is the function executors run, in the driver or in worker processes.  An environment
-that raises (``sys.exit`` included) or returns a non-finite reward yields an ``error`` outcome
-with its message; the run goes on.  Hangs and dying worker processes are the executors' job
-(``timeout`` and ``error`` outcomes).  Environments and controllers are built once per process
-and reused.
+This is the function executors run, in the driver or in worker processes: a batch (part of a
+generation, as large as ``--batch`` allows) goes to the environment in one call
+(:meth:`gdabench.Environment.evaluate_bodies`), so that an environment or controller that
+simulates or learns bodies together can.  An environment that raises (``sys.exit`` included) or
+returns a non-finite reward yields an ``error`` outcome for that body, with its message; a failure
+of the whole call is every body's; the run goes on.  Hangs and dying worker processes are the
+executors' job (``timeout`` and ``error`` outcomes).  Environments and controllers are built once
+per process and reused.
 """
 
 from __future__ import annotations
@@ -76,18 +79,44 @@ def prepare(recipes: Sequence[Factory]) -> None:
             pass
 
 
-def evaluate(task: EvalTask, prebuilt: Mapping[str, Any] | None = None) -> EvalOutcome:
-    """Score one body; never raises for a failure of the environment or controller."""
+def evaluate_batch(tasks: Sequence[EvalTask], prebuilt: Mapping[str, Any] | None = None) -> list[EvalOutcome]:
+    """Score ``tasks`` (bodies of one environment and controller) in one call; never raises for a failure
+    of the environment or controller.  A body's ``seconds`` is its share of the call's time."""
     start = time.perf_counter()
+    first = tasks[0]
+    if any(task.env != first.env or task.controller != first.controller for task in tasks):
+        raise ValueError("a batch holds bodies of one environment and controller")
     try:
-        env: Environment = instance(task.env, prebuilt)
-        controller = instance(task.controller, prebuilt) if task.controller else None
-        result = env.evaluate(task.body, seed=task.seed, controller=controller, workdir=task.workdir)
-        ev = result if isinstance(result, Evaluation) else Evaluation(float(result))
-        reward = float(ev.reward)
+        env: Environment = instance(first.env, prebuilt)
+        controller = instance(first.controller, prebuilt) if first.controller else None
+        results = env.evaluate_bodies(
+            [task.body for task in tasks],
+            seeds=[task.seed for task in tasks],
+            controller=controller,
+            workdirs=[task.workdir for task in tasks],
+        )
+        if len(results) != len(tasks):
+            raise RuntimeError(f"evaluate_bodies returned {len(results)} results for {len(tasks)} bodies")
     except (Exception, SystemExit) as exc:  # noqa: BLE001 - a failing evaluation is data, not a crash
-        return EvalOutcome(math.nan, ERROR, one_line(exc), time.perf_counter() - start)
-    seconds = time.perf_counter() - start
+        seconds = (time.perf_counter() - start) / len(tasks)
+        return [EvalOutcome(math.nan, ERROR, one_line(exc), seconds) for _ in tasks]
+    seconds = (time.perf_counter() - start) / len(tasks)
+    return [_outcome(result, seconds) for result in results]
+
+
+def evaluate(task: EvalTask, prebuilt: Mapping[str, Any] | None = None) -> EvalOutcome:
+    """Score one body (the batch of one)."""
+    return evaluate_batch([task], prebuilt)[0]
+
+
+def _outcome(result: float | Evaluation | BaseException, seconds: float) -> EvalOutcome:
+    if isinstance(result, BaseException):
+        return EvalOutcome(math.nan, ERROR, one_line(result), seconds)
+    ev = result if isinstance(result, Evaluation) else Evaluation(float(result))
+    try:
+        reward = float(ev.reward)
+    except (TypeError, ValueError) as exc:
+        return EvalOutcome(math.nan, ERROR, one_line(exc), seconds)
     if not math.isfinite(reward):
         return EvalOutcome(
             math.nan, ERROR, f"environment returned a non-finite reward ({reward})", seconds, dict(ev.info)

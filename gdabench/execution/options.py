@@ -6,6 +6,10 @@
 * ``workers``: evaluation processes per trial.  One evaluates in the trial's own process;
   more (or a ``timeout``) give the trial a supervised pool of worker processes (Ray actors on
   Ray), which pays where an evaluation is expensive (physics with a learning controller).
+* ``batch``: bodies handed to an environment in one call (at most; a generation is split evenly
+  over the workers).  Default: what the controller (or environment) asks for
+  (``bodies_at_once``): 1 for most, a generation for ``ppo``, which learns its bodies in lockstep.
+  Smaller batches bound memory and lose less to a kill; larger ones learn faster per core.
 
 None of this changes a run's results: a trial depends only on its seed, and an evaluation only
 on its body, its seed and the recipes, so the table is the same on any executor with any
@@ -43,11 +47,12 @@ class Execution:
     timeout: float | None = None
     ray_address: str | None = None
     cache: str | None = None
+    batch: int | None = None
 
     def __post_init__(self) -> None:
         if self.executor not in EXECUTORS:
             raise ConfigError(f"unknown executor {self.executor!r}; known executors: {', '.join(EXECUTORS)}")
-        for name in ("jobs", "workers"):
+        for name in ("jobs", "workers", "batch"):
             value = getattr(self, name)
             if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 1):
                 raise ConfigError(f"{name} must be a positive integer, got {value!r}")

@@ -3,11 +3,13 @@
 ``concurrent.futures.ProcessPoolExecutor`` cannot stop one hung task, and when one worker dies
 it breaks the whole pool, failing every task in flight.  Evaluations of robot bodies hang and
 crash (a physics engine aborting, a controller running out of memory), so this pool gives each
-worker one task at a time and always knows which task a worker runs:
+worker one batch of bodies at a time (:func:`~gdabench.execution.executor.batches`) and always
+knows which batch a worker runs:
 
-* a worker that dies is replaced, and only the task it was running becomes an ``error``;
-* a task that runs past the timeout has its worker killed and replaced, and becomes ``timeout``;
-* every other task is unaffected, so no outcome depends on what failed around it.
+* a worker that dies is replaced, and only the batch it was running becomes ``error`` rows;
+* a batch that runs past its timeout (the per-body timeout times its bodies: a batch learned in
+  lockstep cannot stop one body) has its worker killed and replaced, and becomes ``timeout`` rows;
+* every other batch is unaffected, so no outcome depends on what failed around it.
 
 Workers build the run's environment and controller before they report ready, so start-up is
 not charged to the first evaluation's timeout.  The pool logic is shared; a :class:`Backend`
@@ -32,8 +34,8 @@ from typing import Any, Sequence
 from ..errors import GdabenchError, one_line
 from ..specs import Factory
 from . import spawning
-from .evaluation import ERROR, TIMEOUT, EvalOutcome, EvalTask, evaluate, prepare
-from .executor import Executor
+from .evaluation import ERROR, TIMEOUT, EvalOutcome, EvalTask, evaluate_batch, prepare
+from .executor import Executor, batches
 
 #: seconds the pool waits for its first worker to import gdabench and build the environment
 #: (workers that start later, e.g. queued on a busy Ray cluster, may take as long as they need)
@@ -51,11 +53,11 @@ class WorkerGone(Exception):
 
 @dataclass(eq=False)
 class Slot:
-    """One place in the pool: the backend's worker and the task it runs (index into the batch)."""
+    """One place in the pool: the backend's worker and the batch it runs (indices of its tasks)."""
 
     worker: Any
     ready: bool = False
-    task: int | None = None
+    task: list[int] | None = None
     started: float = 0.0
     born: float = field(default_factory=time.monotonic)
 
@@ -68,12 +70,13 @@ class Backend(abc.ABC):
         """Start a worker; it reports READY (through :meth:`wait`) once it can take tasks."""
 
     @abc.abstractmethod
-    def send(self, worker: Any, task: EvalTask) -> None:
-        """Hand ``task`` to an idle worker; raise :class:`WorkerGone` if it is not there any more."""
+    def send(self, worker: Any, tasks: Sequence[EvalTask]) -> None:
+        """Hand a batch to an idle worker; raise :class:`WorkerGone` if it is not there any more."""
 
     @abc.abstractmethod
     def wait(self, slots: Sequence[Slot], timeout: float | None) -> list[tuple[Slot, str, Any]]:
-        """Block up to ``timeout`` s for events: (slot, READY, None), (slot, RESULT, outcome), (slot, DIED, message)."""
+        """Block up to ``timeout`` s for events: (slot, READY, None), (slot, RESULT, outcomes of its batch),
+        (slot, DIED, message)."""
 
     @abc.abstractmethod
     def kill(self, worker: Any) -> None:
@@ -92,10 +95,10 @@ class WorkerPool:
         self.backend, self.size, self.timeout = backend, size, timeout
         self.slots: list[Slot] = []
 
-    def map(self, tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
+    def map(self, tasks: Sequence[EvalTask], batch: int = 1) -> list[EvalOutcome]:
         outcomes: list[EvalOutcome | None] = [None] * len(tasks)
-        queue = deque(range(len(tasks)))
-        while len(self.slots) < min(self.size, len(tasks)):
+        queue = deque(batches(tasks, self.size, batch))
+        while len(self.slots) < min(self.size, len(queue)):
             self.slots.append(Slot(self.backend.start()))
         try:
             while queue or any(s.task is not None for s in self.slots):
@@ -109,24 +112,26 @@ class WorkerPool:
         return outcomes  # type: ignore[return-value]
 
     def _dispatch(
-        self, slot: Slot, queue: deque[int], tasks: Sequence[EvalTask], outcomes: list[EvalOutcome | None]
+        self, slot: Slot, queue: deque[list[int]], tasks: Sequence[EvalTask], outcomes: list[EvalOutcome | None]
     ) -> None:
-        index = queue.popleft()
+        part = queue.popleft()
         try:
-            self.backend.send(slot.worker, tasks[index])
+            self.backend.send(slot.worker, [tasks[i] for i in part])
         except WorkerGone:
-            queue.appendleft(index)  # the worker died while idle: not this task's fault
+            queue.appendleft(part)  # the worker died while idle: not this batch's fault
             self._replace(slot)
             return
         except Exception as exc:  # noqa: BLE001 - e.g. a task that does not pickle
-            outcomes[index] = EvalOutcome(math.nan, ERROR, f"task could not be sent to a worker: {one_line(exc)}")
+            _fill(outcomes, part, EvalOutcome(math.nan, ERROR, f"task could not be sent to a worker: {one_line(exc)}"))
             return
-        slot.task, slot.started = index, time.monotonic()
+        slot.task, slot.started = part, time.monotonic()
 
     def _deadline(self, slot: Slot, any_ready: bool) -> float | None:
         if not slot.ready:
             return None if any_ready else slot.born + START_TIMEOUT
-        return None if self.timeout is None else slot.started + self.timeout
+        if self.timeout is None or slot.task is None:
+            return None
+        return slot.started + self.timeout * len(slot.task)
 
     def _step(self, outcomes: list[EvalOutcome | None]) -> None:
         """Wait for the next results, deaths or deadlines, and handle them."""
@@ -145,10 +150,17 @@ class WorkerPool:
                     f"a worker could not start: {payload if kind == DIED else 'it answered before it was ready'}"
                 )
             elif kind == RESULT:
-                outcomes[slot.task] = payload  # type: ignore[index]
+                assert slot.task is not None
+                if isinstance(payload, EvalOutcome):  # one outcome for the whole batch (it could not run)
+                    _fill(outcomes, slot.task, payload)
+                else:
+                    for i, outcome in zip(slot.task, payload):
+                        outcomes[i] = outcome
                 slot.task = None
             else:
-                outcomes[slot.task] = EvalOutcome(math.nan, ERROR, payload, time.monotonic() - slot.started)  # type: ignore[index]
+                assert slot.task is not None
+                share = (time.monotonic() - slot.started) / len(slot.task)
+                _fill(outcomes, slot.task, EvalOutcome(math.nan, ERROR, payload, share))
                 self._replace(slot)
         now = time.monotonic()
         for slot in live:
@@ -158,8 +170,11 @@ class WorkerPool:
             if not slot.ready:
                 self._discard(slot)
                 raise WorkerStartError(f"no worker started within {START_TIMEOUT:g} s")
-            message = f"evaluation did not finish within the {self.timeout:g} s timeout"
-            outcomes[slot.task] = EvalOutcome(math.nan, TIMEOUT, message, now - slot.started)  # type: ignore[index]
+            assert slot.task is not None
+            n = len(slot.task)
+            within = f"the {self.timeout:g} s timeout" + (f" ({n} bodies evaluated together)" if n > 1 else "")
+            message = f"evaluation did not finish within {within}"
+            _fill(outcomes, slot.task, EvalOutcome(math.nan, TIMEOUT, message, (now - slot.started) / n))
             self._replace(slot)
 
     def _discard(self, slot: Slot) -> None:
@@ -180,6 +195,11 @@ class WorkerPool:
         self.slots = []
 
 
+def _fill(outcomes: list[EvalOutcome | None], part: Sequence[int], outcome: EvalOutcome) -> None:
+    for i in part:
+        outcomes[i] = outcome
+
+
 # -- local processes -------------------------------------------------------------------------------
 def exit_when_orphaned(parent: int) -> None:
     while True:
@@ -189,7 +209,7 @@ def exit_when_orphaned(parent: int) -> None:
 
 
 def _serve(conn: Connection, warm: Sequence[Factory], parent: int) -> None:
-    """Worker process main loop: evaluate the tasks the driver sends, one at a time.
+    """Worker process main loop: evaluate the batches the driver sends, one at a time.
 
     Ctrl-C is ignored (the driver decides what an interrupt means), and the worker exits by
     itself when the driver dies, even in the middle of a hung evaluation.
@@ -203,22 +223,19 @@ def _serve(conn: Connection, warm: Sequence[Factory], parent: int) -> None:
         return
     while True:
         try:
-            task = conn.recv()
+            tasks = conn.recv()
         except (EOFError, OSError):  # the driver is gone
             return
-        if task is None:
+        if tasks is None:
             return
-        outcome = evaluate(task)
+        outcomes = evaluate_batch(tasks)
         try:
-            conn.send(outcome)
+            conn.send(outcomes)
         except OSError:  # the driver is gone
             return
         except Exception as exc:  # noqa: BLE001 - e.g. an info value that does not pickle
-            conn.send(
-                EvalOutcome(
-                    math.nan, ERROR, f"result could not be sent to the driver: {one_line(exc)}", outcome.seconds
-                )
-            )
+            message = f"result could not be sent to the driver: {one_line(exc)}"
+            conn.send(EvalOutcome(math.nan, ERROR, message, outcomes[0].seconds))
 
 
 def death_message(exitcode: int | None) -> str:
@@ -252,9 +269,9 @@ class ProcessBackend(Backend):
         worker_end.close()
         return _Process(process, driver_end)
 
-    def send(self, worker: _Process, task: EvalTask) -> None:
+    def send(self, worker: _Process, tasks: Sequence[EvalTask]) -> None:
         try:
-            worker.conn.send(task)  # pickles first: a task that does not pickle writes nothing
+            worker.conn.send(list(tasks))  # pickles first: a task that does not pickle writes nothing
         except (BrokenPipeError, ConnectionError, EOFError) as exc:
             raise WorkerGone from exc
 
@@ -305,8 +322,8 @@ class ProcessExecutor(Executor):
         self.workers = workers
         self._pool = WorkerPool(ProcessBackend(warm), workers, timeout=timeout)
 
-    def map(self, tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
-        return self._pool.map(tasks)
+    def map(self, tasks: Sequence[EvalTask], batch: int = 1) -> list[EvalOutcome]:
+        return self._pool.map(tasks, batch)
 
     def close(self) -> None:
         self._pool.close()

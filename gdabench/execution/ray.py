@@ -2,10 +2,10 @@
 
 Ray is an optional extra (``pip install 'gdabench[ray]'``) imported only when this executor is
 chosen.  The workers are Ray actors (1 CPU each, never restarted), supervised by the same pool
-as local processes (:mod:`gdabench.pool`): each actor builds the environment once, takes one
-body at a time, and a body that kills its actor or runs past the timeout costs only its own
-evaluation while a fresh actor takes the dead one's place.  Because a body is only sent to an
-idle, ready actor, the timeout measures the evaluation, not time spent queued on a busy
+as local processes (:mod:`gdabench.execution.pool`): each actor builds the environment once, takes
+one batch of bodies at a time, and a batch that kills its actor or runs past the timeout costs only
+its own evaluations while a fresh actor takes the dead one's place.  Because a batch is only sent to
+an idle, ready actor, the timeout measures the evaluation, not time spent queued on a busy
 cluster or starting a worker.  The designer stays in the driver.
 """
 
@@ -20,7 +20,7 @@ from typing import Any, Sequence
 
 from ..errors import ConfigError, one_line
 from ..specs import Factory
-from .evaluation import ERROR, EvalOutcome, EvalTask, evaluate, prepare
+from .evaluation import ERROR, EvalOutcome, EvalTask, evaluate_batch, prepare
 from .executor import Executor
 from .pool import DIED, READY, RESULT, Backend, Slot, WorkerGone, WorkerPool
 
@@ -34,7 +34,7 @@ def import_ray() -> Any:
 
 
 class Evaluator:
-    """The actor: holds the environment and controller, evaluates one body per call."""
+    """The actor: holds the environment and controller, evaluates one batch of bodies per call."""
 
     def __init__(self, warm: Sequence[Factory]):
         prepare(warm)
@@ -42,8 +42,8 @@ class Evaluator:
     def ready(self) -> bool:
         return True
 
-    def evaluate(self, task: EvalTask) -> EvalOutcome:
-        return evaluate(task)
+    def evaluate(self, tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
+        return evaluate_batch(tasks)
 
 
 @dataclass(eq=False)
@@ -61,9 +61,9 @@ class RayBackend(Backend):
         handle = self._cls.remote(self.warm)
         return _Actor(handle, handle.ready.remote())
 
-    def send(self, worker: _Actor, task: EvalTask) -> None:
+    def send(self, worker: _Actor, tasks: Sequence[EvalTask]) -> None:
         try:
-            worker.pending = worker.handle.evaluate.remote(task)
+            worker.pending = worker.handle.evaluate.remote(list(tasks))
         except self.ray.exceptions.RayActorError as exc:
             raise WorkerGone from exc
 
@@ -136,7 +136,7 @@ class RayConnection:
 
 
 class RayExecutor(Executor):
-    """A pool of ``workers`` Ray actors evaluating one body each at a time."""
+    """A pool of ``workers`` Ray actors evaluating one batch each at a time."""
 
     def __init__(
         self, workers: int, *, address: str | None = None, timeout: float | None = None, warm: Sequence[Factory] = ()
@@ -145,8 +145,8 @@ class RayExecutor(Executor):
         self.workers = workers
         self._pool = WorkerPool(RayBackend(self._connection.ray, warm), workers, timeout=timeout)
 
-    def map(self, tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
-        return self._pool.map(tasks)
+    def map(self, tasks: Sequence[EvalTask], batch: int = 1) -> list[EvalOutcome]:
+        return self._pool.map(tasks, batch)
 
     def close(self) -> None:
         self._pool.close()

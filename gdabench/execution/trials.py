@@ -74,7 +74,9 @@ class TrialHost:
         if self._executor is None:
             warm = [r for r in (spec.env.factory, spec.controller) if r is not None]
             self._executor = make_executor(self.execution, self.prebuilt, warm)
-        evaluate: Evaluate = self._executor.map
+        controller = instance(spec.controller, self.prebuilt) if spec.controller else None
+        batch = self.execution.batch or (controller or env).bodies_at_once
+        evaluate: Evaluate = functools.partial(self._executor.map, batch=batch)
         if self.execution.cache is not None and spec.cache_context is not None:
             evaluate = cached(evaluate, EvaluationCache(self.execution.cache, spec.cache_context))
         # deterministic environments only; a Ray cluster's nodes may not see the run directory
@@ -83,8 +85,8 @@ class TrialHost:
             if spec.cache_context is not None and self.execution.executor == "local"
             else None
         )
-        evaluate = body_by_body(evaluate, self.execution.workers, outcomes, self._report)
-        strategy = instance(spec.controller, self.prebuilt).evaluation_strategy() if spec.controller else None
+        evaluate = body_by_body(evaluate, self.execution.workers * batch, outcomes, self._report)
+        strategy = controller.evaluation_strategy() if controller else None
         self._evaluate = evaluate if strategy is None else functools.partial(strategy.evaluate, evaluate=evaluate)
 
     def _report(self, done: int, total: int) -> None:
@@ -111,8 +113,9 @@ class TrialHost:
 def body_by_body(
     evaluate: Evaluate, at_once: int, outcomes: RunOutcomes | None, report: Callable[[int, int], None]
 ) -> Evaluate:
-    """``evaluate`` a generation ``at_once`` bodies at a time (as many as its workers take), so that each
-    finished body is reported and recorded in the run's ``outcomes`` at once, and recorded ones are replayed."""
+    """``evaluate`` a generation ``at_once`` bodies at a time (as many as its workers take in one batch each),
+    so that each finished batch is reported and recorded in the run's ``outcomes`` at once, and recorded bodies
+    are replayed."""
 
     def evaluate_each(tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
         known = [outcomes.get(task) if outcomes is not None else None for task in tasks]

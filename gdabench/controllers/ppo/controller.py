@@ -12,13 +12,13 @@ animate a body, and how a resumed run skips bodies it already trained.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
-from ...environment import Controller, Evaluation
+from ...environment import Bodies, Controller, Evaluation
+from ...envs.batched import BodyBatch, GymBodies
 from ...errors import ConfigError
 from ...params import config_signature
 from ...torch_runtime import resolve_device
-from .bodies import GymBodies
 from .config import PPOConfig
 from .evaluation import evaluate_policies
 from .networks import Stacked
@@ -54,6 +54,10 @@ class PPO(Controller):
         threads: torch threads per training
     """
 
+    #: a generation's bodies are learned together in lockstep (:func:`.train.train`); a body learns the same
+    #: in any batch, so the batch size changes speed and memory, never results
+    bodies_at_once = 32
+
     def __init__(self, **params: Any):
         try:
             self.config = PPOConfig(**params)
@@ -67,14 +71,68 @@ class PPO(Controller):
         return {"settings": settings, "seed": int(seed)}
 
     def evaluate(self, make_env: Callable[[], Any], *, seed: int, workdir: Path | None = None) -> Evaluation:
-        if readable_policy(workdir):
+        [result] = self.evaluate_bodies(Bodies([make_env]), seeds=[seed], workdirs=[workdir])
+        if isinstance(result, BaseException):
+            raise result
+        return result
+
+    def evaluate_bodies(
+        self, bodies: Bodies, *, seeds: Sequence[int], workdirs: Sequence[Path | None]
+    ) -> list[Evaluation | BaseException]:
+        """Bodies with a policy saved by the same settings and seed replay it; the others train together,
+        in lockstep (see :mod:`~gdabench.controllers.ppo.train`), each saving its best policy."""
+        out: list[Evaluation | BaseException | None] = [
+            self._saved(make_env, seed, workdir) for make_env, seed, workdir in zip(bodies.make_envs, seeds, workdirs)
+        ]
+        todo = [i for i, result in enumerate(out) if result is None]
+        for i, result in zip(todo, self._train(bodies, todo, seeds)):
+            if isinstance(result, BaseException):
+                out[i] = result
+                continue
+            workdir = workdirs[i]
+            if workdir is not None:
+                save_policy(workdir, result.nets, self._meta(result, seeds[i]))
+            out[i] = Evaluation(result.reward, self._info(result, len(todo)))
+        return [r for r in out if r is not None]
+
+    def _saved(self, make_env: Callable[[], Any], seed: int, workdir: Path | None) -> Evaluation | BaseException | None:
+        """The replayed score of a policy saved for these settings and seed, or None."""
+        if workdir is None or not readable_policy(workdir):
+            return None
+        try:
             saved = load_policy(workdir, self.device)
-            if saved.meta.get("trained_with") == self.fingerprint(seed):
-                return Evaluation(replay_policy(saved, make_env), {"replayed": 1})
-        [result] = train(self.config, lambda n: GymBodies([make_env], n), [seed], device=self.device)
-        if workdir is not None:
-            save_policy(workdir, result.nets, self._meta(result, seed))
-        return Evaluation(result.reward, self._info(result))
+            if saved.meta.get("trained_with") != self.fingerprint(seed):
+                return None
+            return Evaluation(replay_policy(saved, make_env), {"replayed": 1})
+        except Exception as exc:  # noqa: BLE001 - this body's failure, not the batch's
+            return exc
+
+    def _train(self, bodies: Bodies, indices: list[int], seeds: Sequence[int]) -> list[TrainResult | BaseException]:
+        """Train the bodies ``indices`` in one batch; if the batch fails, each alone, so that only a
+        failing body's entry is an error."""
+        if not indices:
+            return []
+
+        def batch(part: list[int]) -> Callable[[int], BodyBatch]:
+            if bodies.make_batch is not None:
+                return lambda n: bodies.make_batch(part, n)  # type: ignore[misc]
+            return lambda n: GymBodies([bodies.make_envs[i] for i in part], n)
+
+        def run(part: list[int]) -> list[TrainResult]:
+            return train(self.config, batch(part), [seeds[i] for i in part], pad=bodies.pad, device=self.device)
+
+        try:
+            return list(run(indices))
+        except Exception:
+            if len(indices) == 1:
+                raise
+        out: list[TrainResult | BaseException] = []
+        for i in indices:
+            try:
+                out += run([i])
+            except Exception as exc:  # noqa: BLE001 - this body's failure, not the batch's
+                out.append(exc)
+        return out
 
     def _meta(self, result: TrainResult, seed: int) -> dict[str, Any]:
         return {
@@ -90,14 +148,16 @@ class PPO(Controller):
         }
 
     @staticmethod
-    def _info(result: TrainResult) -> dict[str, Any]:
+    def _info(result: TrainResult, batch: int) -> dict[str, Any]:
+        """Result columns; the batch's training time is shared equally among its bodies."""
         return {
             "env_steps": result.timesteps,
             "ppo_best_at": result.best.timesteps,
             "ppo_unstable_episodes": result.unstable_episodes,
             "ppo_diverged": int(result.diverged),
-            "ppo_train_seconds": round(result.seconds["collect"] + result.seconds["update"], 3),
-            "ppo_eval_seconds": round(result.seconds["evaluate"], 3),
+            "ppo_batch": batch,
+            "ppo_train_seconds": round((result.seconds["collect"] + result.seconds["update"]) / batch, 3),
+            "ppo_eval_seconds": round(result.seconds["evaluate"] / batch, 3),
             "replayed": 0,
         }
 
@@ -117,7 +177,8 @@ def replay_policy(saved: SavedPolicy, make_env: Callable[[], Any]) -> float:
     seed = saved.meta["trained_with"]["seed"]
     device = next(saved.nets.parameters()).device
     with deterministic_torch(config.threads):
-        nets = Stacked([saved.nets], *saved.meta["padded"], device=device)
+        n_obs, n_act = saved.meta["padded"]
+        nets = Stacked([saved.nets], n_obs, n_act, device=device)
         [scores] = evaluate_policies(
             nets,
             lambda n: GymBodies([make_env], n),

@@ -49,7 +49,7 @@ def has_policy(workdir: Path | None) -> bool:
 
 def readable_policy(workdir: Path | None) -> bool:
     """``workdir`` holds a policy in the format this gdabench reads (one of an older format is trained again)."""
-    if not has_policy(workdir):
+    if workdir is None or not has_policy(workdir):
         return False
     try:
         return json.loads((Path(workdir) / META_FILE).read_text()).get("format") == FORMAT

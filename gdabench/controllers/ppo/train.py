@@ -34,8 +34,8 @@ import numpy as np
 import torch
 from torchrl.objectives.value.functional import generalized_advantage_estimate
 
+from ...envs.batched import BodyBatch
 from ...torch_runtime import torch_threads
-from .bodies import BodyBatch
 from .config import PPOConfig
 from .evaluation import as_input, evaluate_policies
 from .networks import ActorCritic, Stacked
@@ -185,7 +185,8 @@ def train(
         try:
             batch.seed(seeds)
             n_obs, n_act = pad or (max(batch.obs_sizes), max(batch.act_sizes))
-            init = [initial_networks(s, o, a, config.hidden) for s, o, a in zip(seeds, batch.obs_sizes, batch.act_sizes)]
+            sizes = zip(seeds, batch.obs_sizes, batch.act_sizes)
+            init = [initial_networks(s, o, a, config.hidden) for s, o, a in sizes]
             nets = Stacked(init, max(n_obs, *batch.obs_sizes), max(n_act, *batch.act_sizes), device)
             run = _Training(config, nets, batch, seeds, clock, on_rollout)
             run.loop(make_batch)
@@ -305,7 +306,8 @@ class _Training:
                 trajectories(per_body(rollout["terminated"])),
             )
             advantage = advantage.reshape(B, E * T)
-        samples = Minibatch(obs, per_body(rollout["action"]), per_body(rollout["log_prob"]), advantage, advantage + value)
+        actions, log_probs = per_body(rollout["action"]), per_body(rollout["log_prob"])
+        samples = Minibatch(obs, actions, log_probs, advantage, advantage + value)
         last_finite = nets.snapshot()
         rows = torch.arange(B, device=device).unsqueeze(1)
         total = torch.zeros(B, 2, device=device)
@@ -313,7 +315,8 @@ class _Training:
         for _ in range(config.n_epochs):
             order = torch.stack([torch.randperm(E * T, generator=g) for g in self.order]).to(device)
             for chunk in order.split(config.batch_size, dim=1):
-                total += self.update(Minibatch(*(getattr(samples, f)[rows, chunk] for f in Minibatch.__dataclass_fields__)))
+                parts = (getattr(samples, f)[rows, chunk] for f in Minibatch.__dataclass_fields__)
+                total += self.update(Minibatch(*parts))
                 count += 1
                 if self.diverged.any():  # frozen bodies stay where they diverged
                     nets.restore(last_finite, self.diverged)

@@ -12,13 +12,17 @@ never needs to know which simulator runs underneath.  ``engine`` chooses it:
 
 from __future__ import annotations
 
-from typing import Any
+import functools
+from typing import Any, Sequence
 
 import gymnasium
+import numpy as np
 
 from ...body import Body
+from ...environment import Bodies
 from ...errors import ConfigError
 from .. import voxel
+from ..batched import ArrayBodies
 from ..controlled import ControlledEnvironment
 from . import ENV_ID
 
@@ -48,3 +52,22 @@ class Walker(ControlledEnvironment):
 
     def make_env(self, body: Body, **kwargs: Any) -> gymnasium.Env:
         return make_walker(body, self.engine, **kwargs)
+
+    def bodies(self, bodies: Sequence[Body]) -> Bodies:
+        """The bodies' Gymnasium environments and, on the voxel engine, all of them as one array batch;
+        every batch is padded as for the largest body of the shape (``(h + 1)(w + 1)`` points,
+        ``h w`` actuators), so a body learns the same in any batch and alone."""
+        h, w = self.shape
+        pad = (2 + 2 * (h + 1) * (w + 1), h * w)
+        make_envs = [functools.partial(self.make_env, body) for body in bodies]
+        if self.engine != "voxel":
+            return Bodies(make_envs, pad=pad)
+        from ..voxel import engine, walker  # Numba loads here, not when gdabench is imported
+
+        tables = engine.body_tables([np.full(self.shape, 4, dtype=np.int8)])
+
+        def make_batch(indices: Sequence[int], n: int) -> ArrayBodies:
+            simulator = walker.WalkerBatch([bodies[i] for i in indices], n, pad=tables)
+            return ArrayBodies(simulator, n, voxel.MAX_EPISODE_STEPS)
+
+        return Bodies(make_envs, make_batch, pad)

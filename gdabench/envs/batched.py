@@ -1,7 +1,7 @@
-"""Environments for training: several bodies x E environments each, stepped as one batch.
+"""Environments of several bodies x E environments each, stepped as one batch.
 
-PPO trains a batch of bodies in lockstep (:mod:`~gdabench.controllers.ppo.train`).  What it needs from
-the simulation is a :class:`BodyBatch`: environment ``i`` belongs to body ``i // envs_per_body``;
+A controller that learns many bodies at once (``ppo`` trains a batch in lockstep) needs the simulation
+as a :class:`BodyBatch`: environment ``i`` belongs to body ``i // envs_per_body``;
 observations and actions are padded to the batch's widest; ``step`` clips actions into the action
 space on their way in (stable-baselines3's convention: the Gaussian is unbounded), and an environment
 whose episode ended is reset at once, its next observation the new episode's first.  A time-limit
@@ -19,7 +19,7 @@ Two kinds:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable, Protocol, Sequence, cast
+from typing import Callable, Protocol, Sequence, cast
 
 import gymnasium
 import numpy as np
@@ -150,10 +150,17 @@ class GymBodies:
 class ArraySimulator(Protocol):
     """What :class:`ArrayBodies` needs of an array simulator (see :class:`~gdabench.envs.voxel.walker.WalkerBatch`)."""
 
-    done: np.ndarray
-    obs_sizes: list[int]
-    act_sizes: list[int]
-    action_bounds: tuple[float, float]
+    @property
+    def done(self) -> np.ndarray: ...
+
+    @property
+    def obs_sizes(self) -> list[int]: ...
+
+    @property
+    def act_sizes(self) -> list[int]: ...
+
+    @property
+    def action_bounds(self) -> tuple[float, float]: ...
 
     def reset(self, mask: np.ndarray | None = None) -> np.ndarray: ...
 
