@@ -7,11 +7,10 @@ each training in its own fresh process, the two sides alternating so that they s
 machine load.  Printed per run and as medians:
 
 * throughput: environment steps per second of training (collection + updates, no
-  evaluation).  For gdabench it is given with and without the first minibatch step, which
-  includes compiling (a few seconds, once per process: every training here runs in a fresh
-  process, so each one pays it); CPU-seconds of the process are printed too, because on a
-  shared machine wall-clock time is not all the process's own, and the ratio of each
-  gdabench training to the SB3 training of the same seed run next to it;
+  evaluation); CPU-seconds of the process are printed too, because on a shared machine
+  wall-clock time is not all the process's own, and the ratio of each gdabench training to the
+  SB3 training of the same seed run next to it.  gdabench trains the body as a batch of one
+  (the lockstep trainer: :mod:`gdabench.controllers.ppo.train`);
 * final mean evaluation reward: the final policy of each side plays ``--episodes`` episodes
   scored the same way (actions sampled from a seeded generator, Evolution Gym 2.0's
   convention of dropping the last step's reward) and, separately, its mean action.
@@ -38,32 +37,39 @@ SB3_SETTINGS = dict(learning_rate=2.5e-4, n_steps=128, batch_size=4, n_epochs=4,
 
 
 class _SB3Policy:
-    """An SB3 policy behind the ``act(observation, generator)`` interface gdabench's evaluation uses."""
+    """An SB3 policy behind the interface gdabench's evaluation uses (a stack of one body's networks)."""
 
-    def __init__(self, model: Any):
-        self.model = model
+    def __init__(self, model: Any, n_obs: int):
+        import torch
 
-    def act(self, observation: Any, generator: Any = None) -> Any:
+        self.model, self.n_obs, self.n_bodies = model, n_obs, 1
+        self.log_std = torch.zeros(1)  # where inputs go (the CPU)
+
+    def act(self, obs: Any, generators: Any) -> tuple[Any, None]:
         import torch
 
         with torch.no_grad():
-            dist = self.model.policy.get_distribution(observation).distribution
-            if generator is None:
-                return dist.mean
-            return dist.mean + dist.stddev * torch.randn(dist.mean.shape, generator=generator)
+            dist = self.model.policy.get_distribution(obs[0]).distribution
+            mean, std = dist.mean.float(), dist.stddev.float()
+            if generators[0] is None:
+                return mean.unsqueeze(0), None
+            return (mean + std * torch.randn(mean.shape, generator=generators[0])).unsqueeze(0), None
 
 
 def _evaluate(policy: Any, make_env: Any, episodes: int, seed: int) -> dict[str, float]:
     import torch
 
-    from gdabench.controllers.ppo.evaluation import evaluate_policy
+    from gdabench.controllers.ppo.evaluation import evaluate_policies
+    from gdabench.envs.batched import GymBodies
 
-    sampled = [
-        evaluate_policy(policy, make_env, n_evals=1, episode_end="evogym2", generator=torch.Generator().manual_seed(seed * 1000 + i))[0]
-        for i in range(episodes)
-    ]
-    mean_action = evaluate_policy(policy, make_env, n_evals=1, episode_end="evogym2")[0]
-    return {"reward": statistics.fmean(sampled), "reward_mean_action": mean_action}
+    def play(generator: Any) -> float:
+        [[score]] = evaluate_policies(
+            policy, lambda n: GymBodies([make_env], n), n_evals=1, episode_end="evogym2", generators=[generator]
+        )
+        return score
+
+    sampled = [play(torch.Generator().manual_seed(seed * 1000 + i)) for i in range(episodes)]
+    return {"reward": statistics.fmean(sampled), "reward_mean_action": play(None)}
 
 
 def run_one(side: str, body: str, timesteps: int, seed: int, episodes: int) -> dict[str, Any]:
@@ -84,22 +90,19 @@ def run_one(side: str, body: str, timesteps: int, seed: int, episodes: int) -> d
         wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
         steps = model.num_timesteps
         out = {"steps_per_s": steps / wall, "steps_per_s_cpu": steps / cpu}
-        policy: Any = _SB3Policy(model)
+        policy: Any = _SB3Policy(model, make_env().observation_space.shape[0])
     else:
         from gdabench.controllers.ppo import PPOConfig
+        from gdabench.controllers.ppo.networks import Stacked
         from gdabench.controllers.ppo.train import train
+        from gdabench.envs.batched import GymBodies
 
         config = PPOConfig(timesteps=timesteps, eval_interval=10 * timesteps)  # evaluation only at the end
-        result = train(config, make_env, seed=seed, device=torch.device("cpu"), compiled=side == "gdabench")
+        [result] = train(config, lambda n: GymBodies([make_env], n), [seed], device=torch.device("cpu"))
         steps, s, c = result.timesteps, result.seconds, result.cpu_seconds
         wall = s["collect"] + s["update"]
-        out = {
-            "steps_per_s": steps / wall,
-            "steps_per_s_cpu": steps / (c["collect"] + c["update"]),
-            "steps_per_s_after_warmup": steps / (wall - s["warmup"]),
-            "warmup_s": s["warmup"],
-        }
-        policy = result.nets
+        out = {"steps_per_s": steps / wall, "steps_per_s_cpu": steps / (c["collect"] + c["update"])}
+        policy = Stacked([result.nets], *result.padded)
     out.update(_evaluate(policy, make_env, episodes, seed))
     return {"side": side, "seed": seed, "timesteps": steps, **out}
 
@@ -120,7 +123,7 @@ def main() -> None:
     parser.add_argument("--seeds", default="0,1,2")
     parser.add_argument("--repeats", type=int, default=1, help="trainings per side and seed (throughput varies with the machine's load)")
     parser.add_argument("--episodes", type=int, default=5, help="evaluation episodes with sampled actions")
-    parser.add_argument("--sides", default="sb3,gdabench", help="sb3, gdabench (compiled step), gdabench-eager")
+    parser.add_argument("--sides", default="sb3,gdabench", help="sb3, gdabench")
     parser.add_argument("--one", help=argparse.SUPPRESS)
     args = parser.parse_args()
     seeds = [int(s) for s in args.seeds.split(",")]
@@ -137,7 +140,7 @@ def main() -> None:
                 rows.append(row)
                 print(json.dumps({k: round(v, 3) if isinstance(v, float) else v for k, v in row.items()}), flush=True)
     print(f"\nmedians over {len(seeds)} seeds x {args.repeats} repeats:")
-    keys = ["steps_per_s", "steps_per_s_after_warmup", "steps_per_s_cpu", "warmup_s", "reward", "reward_mean_action"]
+    keys = ["steps_per_s", "steps_per_s_cpu", "reward", "reward_mean_action"]
     medians = {side: {k: statistics.median(r[k] for r in rows if r["side"] == side) for k in keys if all(k in r for r in rows if r["side"] == side)} for side in sides}
     for side, figures in medians.items():
         print(f"  {side:15s} " + "  ".join(f"{k}={v:.3f}" for k, v in figures.items()))
