@@ -15,6 +15,9 @@ turn and repeated so that they share the machine's load; evaluation is excluded 
 * ``lockstep-machine``: the whole machine: ``--processes`` lockstep processes side by side, each
   with its share of the bodies; the figure is their summed throughput.
 
+The lockstep arm also prints its process's peak memory (``peak_mb``, imports included): with
+``--arms lockstep --bodies N`` it is the memory a batch of N bodies needs.
+
 Bodies are drawn at random (valid 5x5 bodies, seeded); the single-body arms train the first.
 
 Usage::
@@ -28,6 +31,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -73,7 +77,8 @@ def run_lockstep(names: list[str], timesteps: int, seed: int) -> dict[str, Any]:
     results = train(config, make, [seed + i for i in range(len(names))])
     s, c = results[0].seconds, results[0].cpu_seconds
     steps = len(names) * results[0].timesteps
-    return {"steps": steps, "wall": s["collect"] + s["update"], "cpu": c["collect"] + c["update"]}
+    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # the process's peak, imports included
+    return {"steps": steps, "wall": s["collect"] + s["update"], "cpu": c["collect"] + c["update"], "peak_mb": peak_mb}
 
 
 def run_pymunk(name: str, timesteps: int, seed: int) -> dict[str, Any]:
@@ -146,7 +151,8 @@ def finish(arm: str, process: subprocess.Popen) -> dict[str, Any]:
 def measure(arm: str, args: argparse.Namespace, names: list[str], seed: int) -> dict[str, Any]:
     if arm != "lockstep-machine":
         row = finish(arm, spawn("lockstep" if arm == "lockstep" else arm, args, names if arm == "lockstep" else names[:1], seed))
-        return {"arm": arm, "per_s": row["steps"] / row["wall"], "per_cpu_s": row["steps"] / row["cpu"]}
+        extra = {"peak_mb": row["peak_mb"]} if "peak_mb" in row else {}
+        return {"arm": arm, "per_s": row["steps"] / row["wall"], "per_cpu_s": row["steps"] / row["cpu"], **extra}
     shares = [names[i :: args.processes] for i in range(args.processes)]
     start = time.perf_counter()
     rows = [finish(arm, p) for p in [spawn("lockstep", args, share, seed) for share in shares]]

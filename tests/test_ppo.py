@@ -105,15 +105,23 @@ def test_same_seed_same_reward_and_the_caller_rng_is_untouched():
     assert c.reward != a.reward
 
 
-def test_saved_policy_reloads_and_reproduces_its_reward(tmp_path):
-    walker, controller = Walker(), PPO(**SMALL)
+#: Evolution Gym 1.0's schedule: 4 environments, 4 minibatches, linear learning-rate decay, normalised observations
+EVOGYM1 = dict(n_envs=4, batch_size=128, lr_schedule="linear", normalize_obs=True)
+
+
+@pytest.mark.parametrize("schedule", [{}, EVOGYM1], ids=["evogym2", "evogym1"])
+def test_saved_policy_reloads_and_reproduces_its_reward(tmp_path, schedule):
+    settings = dict(timesteps=256 * schedule.get("n_envs", 1), eval_interval=128 * schedule.get("n_envs", 1), **schedule)
+    walker, controller = Walker(), PPO(**settings)
     scored = walker.evaluate(WALKER, seed=3, controller=controller, workdir=tmp_path)
     assert (tmp_path / WEIGHTS_FILE).is_file() and (tmp_path / META_FILE).is_file()
     meta = json.loads((tmp_path / META_FILE).read_text())
-    assert meta["reward"] == scored.reward and len(meta["evaluations"]) == 3 and meta["timesteps"] == 256
+    assert meta["reward"] == scored.reward and len(meta["evaluations"]) == 3 and meta["timesteps"] == settings["timesteps"]
+    saved = torch.load(tmp_path / WEIGHTS_FILE, weights_only=True)["state_dict"]
+    assert (saved["obs_var"] != 1).any() == bool(schedule)  # the statistics learned travel with the policy
 
     assert replay(tmp_path, functools.partial(make_walker, WALKER)) == scored.reward
-    again = walker.evaluate(WALKER, seed=3, controller=PPO(**SMALL), workdir=tmp_path)
+    again = walker.evaluate(WALKER, seed=3, controller=PPO(**settings), workdir=tmp_path)
     assert again.reward == scored.reward and again.info["replayed"] == 1
     frames = walker.render_frames(WALKER, seed=3, controller=controller, workdir=tmp_path)
     assert frames and frames[0].ndim == 3
@@ -270,8 +278,9 @@ def voxel(bodies):
     return lambda n: ArrayBodies(WalkerBatch(bodies, n, pad=pad), n, 500)
 
 
-def test_a_body_learns_the_same_alone_and_in_any_batch():
-    config = PPOConfig(**SMALL, n_envs=2)
+@pytest.mark.parametrize("schedule", [{}, {**EVOGYM1, "n_envs": 2}], ids=["evogym2", "evogym1"])
+def test_a_body_learns_the_same_alone_and_in_any_batch(schedule):
+    config = PPOConfig(**{**SMALL, "n_envs": 2, **schedule})
     [alone] = train(config, voxel(BODIES[1:2]), [11], pad=PAD_5X5)
     batch = train(config, voxel([BODIES[2], BODIES[1], BODIES[0]]), [3, 11, 4], pad=PAD_5X5)
     assert [e.scores for e in batch[1].evaluations] == [e.scores for e in alone.evaluations]

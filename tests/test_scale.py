@@ -167,7 +167,8 @@ def batched_experiment(**params) -> Experiment:
     return Experiment(designers=(PluginChoice("ga"),), envs=PluginChoice("batched", params), population=10, budget=30)
 
 
-def test_a_generation_goes_to_the_environment_in_batches_and_one_bodys_failure_is_its_own(tmp_path, reg):
+@pytest.mark.xdist_group("ray_cluster")  # one Ray instance per module, not one per xdist worker
+def test_a_generation_goes_to_the_environment_in_batches_and_one_bodys_failure_is_its_own(tmp_path, reg, ray_cluster):
     first = compare(batched_experiment(), tmp_path / "plain", reg=reg).load_evaluations()
     first = first.query("generation == 0")["body"].tolist()
     exp = batched_experiment(at_once=4, raise_on=[first[1]], nan_on=[first[6]])
@@ -185,6 +186,7 @@ def test_a_generation_goes_to_the_environment_in_batches_and_one_bodys_failure_i
         ("workers", Execution(workers=2), [4] * 8 + [1] * 2),  # 8 bodies for 2 workers, then 2
         ("batch 3", Execution(batch=3), [3] * 9 + [1]),
         ("batch 1", Execution(workers=2, batch=1), [1] * 10),
+        ("ray", Execution("ray", workers=2), [4] * 8 + [1] * 2),
     ]:
         frame = compare(exp, tmp_path / name, reg=reg, execution=execution).load_evaluations()
         sizes[1] = 0

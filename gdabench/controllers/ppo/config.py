@@ -24,6 +24,8 @@ LAPTOP_TIMESTEPS = 50_000
 EVALUATIONS_PER_TRAINING = 10
 #: how an evaluation episode is scored (see :func:`gdabench.controllers.ppo.evaluation.episode_score`)
 EPISODE_ENDS = ("evogym2", "full")
+#: the learning rate over a training: constant (Evolution Gym 2.0) or decaying linearly to 0 (1.0)
+LR_SCHEDULES = ("constant", "linear")
 
 
 @dataclass(frozen=True)
@@ -48,6 +50,8 @@ class PPOConfig:
     deterministic_eval: bool = False
     episode_end: str = "evogym2"
     hidden: tuple[int, ...] = (64, 64)
+    lr_schedule: str = "constant"
+    normalize_obs: bool = False
     device: str = "cpu"
     threads: int = 1
 
@@ -84,6 +88,10 @@ class PPOConfig:
             )
         if self.episode_end not in EPISODE_ENDS:
             raise ConfigError(f"ppo: episode_end must be one of {', '.join(EPISODE_ENDS)}, got {self.episode_end!r}")
+        if self.lr_schedule not in LR_SCHEDULES:
+            raise ConfigError(f"ppo: lr_schedule must be one of {', '.join(LR_SCHEDULES)}, got {self.lr_schedule!r}")
+        if not isinstance(self.normalize_obs, bool):
+            raise ConfigError(f"ppo: normalize_obs must be true or false, got {self.normalize_obs!r}")
         hidden = (self.hidden,) if isinstance(self.hidden, int) else tuple(self.hidden)
         if not hidden or any(isinstance(h, bool) or not isinstance(h, int) or h < 1 for h in hidden):
             raise ConfigError(f"ppo: hidden must be a list of positive layer widths, got {self.hidden!r}")

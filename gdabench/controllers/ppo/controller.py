@@ -50,6 +50,8 @@ class PPO(Controller):
         deterministic_eval: evaluate the policy's mean action instead of sampling
         episode_end: how an evaluation episode is scored: evogym2 (drops the last step's reward) or full
         hidden: sizes of the hidden layers of policy and value networks
+        lr_schedule: constant (Evolution Gym 2.0) or linear (decays to 0 over the training, Evolution Gym 1.0)
+        normalize_obs: normalise observations by running statistics per body (Evolution Gym 1.0)
         device: cpu, cuda, cuda:N or auto
         threads: torch threads per training
     """
@@ -178,7 +180,7 @@ def replay_policy(saved: SavedPolicy, make_env: Callable[[], Any]) -> float:
     device = next(saved.nets.parameters()).device
     with deterministic_torch(config.threads):
         n_obs, n_act = saved.meta["padded"]
-        nets = Stacked([saved.nets], n_obs, n_act, device=device)
+        nets = Stacked([saved.nets], n_obs, n_act, device=device, normalize_obs=config.normalize_obs)
         [scores] = evaluate_policies(
             nets,
             lambda n: GymBodies([make_env], n),

@@ -36,11 +36,12 @@ def episode_score(rewards: Sequence[float], episode_end: str) -> float:
     return float(np.sum(rewards))
 
 
-def as_input(obs: np.ndarray, nets: Stacked, envs_per_body: int) -> torch.Tensor:
-    """A batch's observations ``(N, width)`` as the networks' input ``(B, E, O)``."""
+def as_input(obs: np.ndarray, nets: Stacked, envs_per_body: int, learn: bool = False) -> torch.Tensor:
+    """A batch's observations ``(N, width)`` as the networks' input ``(B, E, O)``, normalised where the
+    networks normalise (``learn``: training's observations update the running statistics)."""
     x = torch.zeros(nets.n_bodies, envs_per_body, nets.n_obs, device=nets.log_std.device)
     x[:, :, : obs.shape[1]] = torch.from_numpy(obs.astype(np.float32)).view(nets.n_bodies, envs_per_body, -1)
-    return x
+    return nets.observe(x, learn)
 
 
 def evaluate_policies(

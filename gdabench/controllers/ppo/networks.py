@@ -23,6 +23,9 @@ import torch
 from torch import nn
 
 HALF_LOG_2PI = 0.5 * math.log(2 * math.pi)
+#: observation normalisation as stable-baselines3's ``VecNormalize`` (Evolution Gym 1.0): clip, epsilon,
+#: and the count its running statistics start from
+OBS_CLIP, OBS_EPS, OBS_COUNT0 = 10.0, 1e-8, 1e-4
 #: every body's slice of every stacked tensor starts on a 64-byte boundary (16 floats): the CPU's
 #: matrix kernels round differently at other offsets, and a body's numbers would then depend on its
 #: place in the batch
@@ -59,6 +62,10 @@ class ActorCritic(nn.Module):
         self.mean = mlp(self.n_obs, self.hidden, self.n_act, out_gain=0.01)
         self.log_std = nn.Parameter(torch.zeros(self.n_act))
         self.value = mlp(self.n_obs, self.hidden, 1, out_gain=1.0)
+        # running observation statistics (used only with normalize_obs; saved with the policy)
+        self.register_buffer("obs_mean", torch.zeros(self.n_obs))
+        self.register_buffer("obs_var", torch.ones(self.n_obs))
+        self.register_buffer("obs_count", torch.tensor(OBS_COUNT0, dtype=torch.float64))
 
     def dims(self) -> dict[str, object]:
         return {"n_obs": self.n_obs, "n_act": self.n_act, "hidden": list(self.hidden)}
@@ -75,7 +82,14 @@ class Stacked:
     ``params`` are leaf tensors (the optimiser's); each layer's weight is ``(B, in, out)``.
     """
 
-    def __init__(self, nets: Sequence[ActorCritic], n_obs: int, n_act: int, device: torch.device | str = "cpu"):
+    def __init__(
+        self,
+        nets: Sequence[ActorCritic],
+        n_obs: int,
+        n_act: int,
+        device: torch.device | str = "cpu",
+        normalize_obs: bool = False,
+    ):
         hidden = nets[0].hidden
         if any(n.hidden != hidden for n in nets):
             raise ValueError("every body of a batch needs the same hidden layers")
@@ -96,6 +110,15 @@ class Stacked:
             self.act_mask[b, : net.n_act] = 1.0
         self.log_std.requires_grad_(True)
         self.params = [p for layer in self.mean_layers + self.value_layers for p in layer] + [self.log_std]
+        self.normalize_obs = normalize_obs
+        self.obs_mean = torch.zeros(len(nets), n_obs, device=device)
+        self.obs_var = torch.ones(len(nets), n_obs, device=device)
+        self.obs_count = torch.tensor([float(n.obs_count) for n in nets], dtype=torch.float64, device=device)
+        for b, net in enumerate(nets):
+            self.obs_mean[b, : net.n_obs] = net.obs_mean
+            self.obs_var[b, : net.n_obs] = net.obs_var
+        #: what a snapshot holds: the parameters, then the observation statistics
+        self.state = [*self.params, self.obs_mean, self.obs_var, self.obs_count]
 
     @staticmethod
     def _stack(
@@ -123,6 +146,26 @@ class Stacked:
             if i < len(layers) - 1:
                 x = torch.tanh(x)
         return x
+
+    @torch.no_grad()
+    def observe(self, x: torch.Tensor, learn: bool = False) -> torch.Tensor:
+        """Observations ``(B, n, O)`` as the networks take them: normalised per body when ``normalize_obs``,
+        after folding them into the running statistics when ``learn`` (``VecNormalize``'s update: each
+        body's ``n`` observations are one batch)."""
+        if not self.normalize_obs:
+            return x
+        if learn:
+            n = x.shape[1]
+            batch_mean, batch_var = x.mean(1), x.var(1, unbiased=False)
+            total = self.obs_count + n
+            delta = batch_mean - self.obs_mean
+            ratio = (n / total).float().unsqueeze(1)
+            m2 = self.obs_var * (self.obs_count / total).float().unsqueeze(1) + batch_var * ratio
+            self.obs_var.copy_(m2 + delta.square() * ratio * (self.obs_count / total).float().unsqueeze(1))
+            self.obs_mean.add_(delta * ratio)
+            self.obs_count.copy_(total)
+        z = (x - self.obs_mean.unsqueeze(1)) / torch.sqrt(self.obs_var.unsqueeze(1) + OBS_EPS)
+        return torch.clamp(z, -OBS_CLIP, OBS_CLIP)
 
     def mean(self, obs: torch.Tensor) -> torch.Tensor:
         """The Gaussian's mean ``(B, n, A)`` for observations ``(B, n, O)``."""
@@ -159,13 +202,13 @@ class Stacked:
         return actions, log_prob.sum(-1)
 
     def snapshot(self) -> list[torch.Tensor]:
-        """A copy of every parameter (to restore bodies from, see :meth:`restore`)."""
-        return [p.detach().clone() for p in self.params]
+        """A copy of every parameter and observation statistic (to restore bodies from, see :meth:`restore`)."""
+        return [p.detach().clone() for p in self.state]
 
     @torch.no_grad()
     def restore(self, saved: list[torch.Tensor], bodies: torch.Tensor) -> None:
-        """Put the parameters of ``bodies`` (a boolean mask) back to ``saved``."""
-        for p, s in zip(self.params, saved):
+        """Put the parameters and statistics of ``bodies`` (a boolean mask) back to ``saved``."""
+        for p, s in zip(self.state, saved):
             p[bodies] = s[bodies]
 
     @torch.no_grad()
@@ -176,7 +219,7 @@ class Stacked:
     @torch.no_grad()
     def body(self, b: int, params: list[torch.Tensor] | None = None) -> ActorCritic:
         """Body ``b``'s networks unpadded (from ``params``, a :meth:`snapshot`, when given)."""
-        values = params if params is not None else self.params
+        values = params if params is not None else self.state
         net = ActorCritic(self.obs_sizes[b], self.act_sizes[b], self.hidden)
         n_layers = len(self.hidden) + 1
         for layers, offset in ((_linears(net.mean), 0), (_linears(net.value), 2 * n_layers)):
@@ -184,5 +227,9 @@ class Stacked:
                 weight, bias = values[offset + 2 * i][b], values[offset + 2 * i + 1][b]
                 linear.weight.copy_(weight[: linear.in_features, : linear.out_features].T)
                 linear.bias.copy_(bias[: linear.out_features])
-        net.log_std.copy_(values[-1][b, : net.n_act])
+        log_std, obs_mean, obs_var, obs_count = values[len(self.params) - 1 :]
+        net.log_std.copy_(log_std[b, : net.n_act])
+        net.obs_mean.copy_(obs_mean[b, : net.n_obs])
+        net.obs_var.copy_(obs_var[b, : net.n_obs])
+        net.obs_count.copy_(obs_count[b])
         return net

@@ -23,8 +23,9 @@ from .networks import ActorCritic
 
 WEIGHTS_FILE = "ppo_policy.pt"
 META_FILE = "ppo_policy.json"
-#: 2: networks trained in lockstep batches (padded sizes in the JSON); format 1 policies are retrained
-FORMAT = 2
+#: 3: networks trained in lockstep batches (padded sizes in the JSON), with observation statistics;
+#: policies of earlier formats are trained again
+FORMAT = 3
 
 
 @dataclass(frozen=True)

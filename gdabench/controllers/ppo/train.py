@@ -157,7 +157,7 @@ class _Best:
                 self.index[b] = len(history) - 1
                 improved[b] = True
         with torch.no_grad():
-            for saved, p in zip(self.params, self.nets.params):
+            for saved, p in zip(self.params, self.nets.state):
                 saved[improved] = p[improved]
 
 
@@ -187,7 +187,8 @@ def train(
             n_obs, n_act = pad or (max(batch.obs_sizes), max(batch.act_sizes))
             sizes = zip(seeds, batch.obs_sizes, batch.act_sizes)
             init = [initial_networks(s, o, a, config.hidden) for s, o, a in sizes]
-            nets = Stacked(init, max(n_obs, *batch.obs_sizes), max(n_act, *batch.act_sizes), device)
+            widest = max(n_obs, *batch.obs_sizes), max(n_act, *batch.act_sizes)
+            nets = Stacked(init, *widest, device=device, normalize_obs=config.normalize_obs)
             run = _Training(config, nets, batch, seeds, clock, on_rollout)
             run.loop(make_batch)
         finally:
@@ -248,7 +249,9 @@ class _Training:
     def loop(self, make_batch: Callable[[int], BodyBatch]) -> None:
         config, interval = self.config, self.config.evaluation_interval
         obs = self.batch.reset()
-        for _ in range(config.rollouts):
+        for rollout_index in range(config.rollouts):
+            if config.lr_schedule == "linear":  # Evolution Gym 1.0: from the learning rate down to 0
+                self.update.set_learning_rate(config.learning_rate * (1 - rollout_index / config.rollouts))
             with self.clock("collect"):
                 rollout, obs = self.collect(obs)
             before, self.steps = self.steps, self.steps + config.rollout_steps
@@ -269,7 +272,7 @@ class _Training:
         keys = ("obs", "action", "log_prob", "reward", "next_obs", "done", "terminated")
         out: dict[str, list[torch.Tensor]] = {k: [] for k in keys}
         for _ in range(T):
-            x = as_input(obs, nets, E)
+            x = as_input(obs, nets, E, learn=True)
             action, log_prob = nets.act(x, self.sampling)
             step = self.batch.step(action.reshape(len(obs), -1).cpu().numpy().astype(np.float64))
             np.add.at(self.unstable, per_body[step.unstable], 1)
