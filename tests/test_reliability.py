@@ -181,17 +181,19 @@ def test_a_generation_file_missing_under_a_checkpoint_is_refused_naming_it(lost,
     assert_whole(out, reference)
 
 
-def test_a_kill_mid_generation_keeps_the_bodies_it_evaluated(tmp_path, faulty_site, reference):
+@pytest.mark.parametrize("batch", ["1", "3"], ids=["body by body", "batches of 3"])
+def test_a_kill_mid_generation_keeps_the_bodies_it_evaluated(tmp_path, faulty_site, reference, batch):
+    """Killed once 3 of the 5 new bodies of ga seed 0's generation 1 were stored (body by body, or a batch)."""
     out, log = tmp_path / "run", tmp_path / "evaluated.txt"
-    dead = cli(*ARGS, "--jobs", "1", "--out", str(out), site=faulty_site,
-               env={"GDABENCH_FAULT": "outcome-stored:15", "GDABENCH_FAULTY_LOG": str(log)})  # ga seed 0, generation 1, 5th body
+    dead = cli(*ARGS, "--jobs", "1", "--batch", batch, "--out", str(out), site=faulty_site,
+               env={"GDABENCH_FAULT": "outcome-stored:13", "GDABENCH_FAULTY_LOG": str(log)})
     assert dead.returncode == -signal.SIGKILL, dead.stderr
     assert len(RunDirectory.open(out).load_evaluations()) == 10  # generation 1 was not written
     resumed = cli("compare", "--resume", str(out), "-q", "--no-report", site=faulty_site, env={"GDABENCH_FAULTY_LOG": str(log)})
     assert resumed.returncode == 0, resumed.stderr
     assert_whole(out, reference)
     evaluated = log.read_text().splitlines()
-    assert len(evaluated) == len(set(evaluated))  # the 5 bodies scored before the kill were not scored again
+    assert len(evaluated) == len(set(evaluated))  # the bodies scored before the kill were not scored again
     assert not (out / "outcomes").exists()
 
 
