@@ -19,11 +19,10 @@ from typing import Any, Iterable, Sequence
 
 import pandas as pd
 
-from .body import DEFAULT_SHAPE
-from .config import DEFAULT_BUDGET, DEFAULT_ENV, DEFAULT_POPULATION, DEFAULT_SEEDS, PluginChoice
+from .config import PluginChoice
 from .events import RunListener
 from .execution.options import Execution
-from .experiment_build import Choices, RunSetup, build_run
+from .experiment_build import DEFAULTS, Choices, RunSetup, build_run
 from .plugins import Registry
 from .results import RunDirectory
 from .runner import compare as run_experiment
@@ -72,14 +71,14 @@ def open_run(path: str | Path) -> Run:
 
 def compare(
     designers: Choices,
-    env: Choices = DEFAULT_ENV,
+    env: Choices = DEFAULTS["env"],
     *,
     controller: str | PluginChoice | None = None,
-    seeds: str | Iterable[int] = DEFAULT_SEEDS,
-    budget: int = DEFAULT_BUDGET,
-    population: int = DEFAULT_POPULATION,
-    shape: str | Sequence[int] = DEFAULT_SHAPE,
-    stop_at_optimum: bool = False,
+    seeds: str | Iterable[int] = DEFAULTS["seeds"],
+    budget: int = DEFAULTS["budget"],
+    population: int = DEFAULTS["population"],
+    shape: str | Sequence[int] = DEFAULTS["shape"],
+    stop_at_optimum: bool = DEFAULTS["stop_at_optimum"],
     out: str | Path | None = None,
     execution: Execution | None = None,
     progress: bool = True,
