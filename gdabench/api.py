@@ -19,23 +19,13 @@ from typing import Any, Iterable, Sequence
 
 import pandas as pd
 
-from .body import parse_shape
-from .config import Experiment, PluginChoice, parse_seeds
+from .config import PluginChoice
 from .events import RunListener
 from .execution.options import Execution
+from .experiment_build import DEFAULTS, Choices, RunSetup, build_run
 from .plugins import Registry
 from .results import RunDirectory
 from .runner import compare as run_experiment
-
-Choices = str | PluginChoice | Sequence[str | PluginChoice]
-
-
-def _choices(value: Choices) -> tuple[PluginChoice, ...]:
-    items = [value] if isinstance(value, (str, PluginChoice)) else list(value)
-    out: list[PluginChoice] = []
-    for item in items:
-        out += PluginChoice.parse_list(item) if isinstance(item, str) else [item]
-    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -81,14 +71,14 @@ def open_run(path: str | Path) -> Run:
 
 def compare(
     designers: Choices,
-    env: Choices = "simple",
+    env: Choices = DEFAULTS["env"],
     *,
     controller: str | PluginChoice | None = None,
-    seeds: str | Iterable[int] = (0,),
-    budget: int = 1000,
-    population: int = 25,
-    shape: str | Sequence[int] = (5, 5),
-    stop_at_optimum: bool = False,
+    seeds: str | Iterable[int] = DEFAULTS["seeds"],
+    budget: int = DEFAULTS["budget"],
+    population: int = DEFAULTS["population"],
+    shape: str | Sequence[int] = DEFAULTS["shape"],
+    stop_at_optimum: bool = DEFAULTS["stop_at_optimum"],
     out: str | Path | None = None,
     execution: Execution | None = None,
     progress: bool = True,
@@ -101,19 +91,19 @@ def compare(
     takes ``"0..9"`` or any iterable of integers.  ``progress`` shows a progress display (in a
     terminal or a notebook); ``listener`` receives the run's events.
     """
-    experiment = Experiment(
-        designers=_choices(designers),
-        envs=_choices(env),
-        controller=PluginChoice.parse(controller) if isinstance(controller, str) else controller,
-        shape=parse_shape(shape),
-        population=population,
-        budget=budget,
-        seeds=tuple(parse_seeds(seeds if isinstance(seeds, str) else list(seeds))),
-        stop_at_optimum=stop_at_optimum,
-    )
+    setup = build_run(
+        {"designers": designers, "env": env, "controller": controller, "seeds": seeds, "budget": budget,
+         "population": population, "shape": shape, "stop_at_optimum": stop_at_optimum, "out": out,
+         **(execution.to_json() if execution is not None else {})},
+        reg=reg,
+    )  # fmt: skip
     if progress and listener is None:
         from .progress import ProgressDisplay
 
-        with ProgressDisplay(experiment) as display:
-            return Run(run_experiment(experiment, out, execution=execution, listener=display, reg=reg).path)
-    return Run(run_experiment(experiment, out, execution=execution, listener=listener, reg=reg).path)
+        with ProgressDisplay(setup.experiment) as display:
+            return _run(setup, display, reg)
+    return _run(setup, listener, reg)
+
+
+def _run(setup: RunSetup, listener: RunListener | None, reg: Registry | None) -> Run:
+    return Run(run_experiment(setup.experiment, setup.out, execution=setup.execution, listener=listener, reg=reg).path)

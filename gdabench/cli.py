@@ -12,20 +12,18 @@ import inspect
 import os
 import signal
 import sys
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Annotated, Any, Callable, Literal, Optional, cast, get_type_hints
+from typing import Annotated, Any, Callable, Literal, Optional, get_type_hints
 
 import typer
 from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from .body import parse_shape
-from .config import Experiment, PluginChoice, parse_params, parse_seeds
+from .config import PluginChoice, format_seeds
 from .errors import ConfigError, GdabenchError, RunFailure, Terminated
-from .execution.options import Execution
-from .experiment_file import EXECUTION_KEYS, ExperimentFile, load as load_experiment
+from .experiment_build import DEFAULTS, OPTIONS, RunSetup, build_run
 from .loggers import make_logger
 from .plugins import KINDS, registry
 from .progress import ProgressDisplay
@@ -33,7 +31,7 @@ from .report.diversity import NEAR_COPY, SURVIVORS
 from .report.summary import failure_counts, nothing_measured, summarize, thresholds
 from .report.tables import summary_cells
 from .results import RunDirectory
-from .runner import compare as run_compare, default_out_dir, with_added_seeds
+from .runner import compare as run_compare
 
 try:  # typer >= 0.2x carries its own copy of click
     from typer._click import exceptions as click_errors
@@ -169,112 +167,41 @@ class RunOptions:
     """The options ``compare`` and ``run`` share (typer reads them from :data:`RUN_OPTIONS`).
 
     ``explicit`` names the options given on the command line: they override an experiment file
-    (``--config``), which overrides the defaults.
+    (``--config``), which overrides the defaults (see :func:`~gdabench.experiment_build.build_run`).
     """
 
     config: Optional[Path] = None
-    env: str = "simple"
+    env: str = DEFAULTS["env"]
     suite: Optional[str] = None
     controller: Optional[str] = None
-    budget: int = 1000
-    population: int = 25
+    budget: int = DEFAULTS["budget"]
+    population: int = DEFAULTS["population"]
     seeds: Optional[str] = None
     repetitions: Optional[int] = None
-    shape: str = "5x5"
+    shape: str = "x".join(map(str, DEFAULTS["shape"]))
     out: Optional[Path] = None
     designer_param: Optional[list[str]] = None
     env_param: Optional[list[str]] = None
     controller_param: Optional[list[str]] = None
-    jobs: Optional[int] = None
-    workers: int = 1
-    batch: Optional[int] = None
-    executor: str = "local"
-    ray_address: Optional[str] = None
-    timeout: Optional[float] = None
-    cache: Optional[Path] = None
+    jobs: Optional[int] = DEFAULTS["jobs"]
+    workers: int = DEFAULTS["workers"]
+    batch: Optional[int] = DEFAULTS["batch"]
+    executor: str = DEFAULTS["executor"]
+    ray_address: Optional[str] = DEFAULTS["ray_address"]
+    timeout: Optional[float] = DEFAULTS["timeout"]
+    cache: Optional[Path] = DEFAULTS["cache"]
     resume: Optional[Path] = None
-    stop_at_optimum: bool = False
+    stop_at_optimum: bool = DEFAULTS["stop_at_optimum"]
     log: Optional[list[str]] = None
     quiet: bool = False
     no_report: bool = False
     explicit: frozenset[str] = frozenset()  # filled in by with_run_options
 
-    def file(self) -> ExperimentFile:
-        return load_experiment(self.config) if self.config is not None else ExperimentFile(None)
+    def given(self, designers: str) -> dict[str, Any]:
+        """What the user gave, for :func:`~gdabench.experiment_build.build_run` to fill in the rest."""
+        given = {name: getattr(self, name) for name in self.explicit & OPTIONS}
+        return {**given, "designers": designers} if designers else given
 
-    def _given(self, name: str, from_file: Any) -> Any:
-        """The option's value: as given on the command line, else from the file, else the default."""
-        return getattr(self, name) if name in self.explicit or from_file is None else from_file
-
-    def experiment(self, designers: str, base: ExperimentFile) -> Experiment:
-        reg = registry()
-        suite = (
-            reg.get("suite", cast(str, self.suite if "suite" in self.explicit else base.suite)).spec
-            if (self.suite or base.suite)
-            else None
-        )
-        if "env" in self.explicit:
-            envs = tuple(PluginChoice.parse_list(self.env))
-        elif "suite" in self.explicit or (base.envs is None and suite is not None):
-            envs = tuple(PluginChoice.parse(e) for e in suite.envs)  # type: ignore[union-attr]
-        else:
-            envs = base.envs or (PluginChoice.parse(self.env),)
-        env_params = parse_params(self.env_param, "environment parameter")
-        controller = (
-            PluginChoice.parse(self.controller)
-            if "controller" in self.explicit and self.controller
-            else base.controller
-        )
-        if controller is None and suite is not None and suite.controller:
-            controller = PluginChoice.parse(suite.controller)
-        if self.controller_param:
-            if controller is None:
-                raise ConfigError("--controller-param given without --controller")
-            controller = controller.with_params(parse_params(self.controller_param, "controller parameter"))
-        chosen = PluginChoice.parse_list(designers) if designers else list(base.designers or ())
-        seeds = (
-            base.seeds
-            if not ({"seeds", "repetitions"} & self.explicit) and base.seeds
-            else parse_seeds(self.seeds, self.repetitions)
-        )
-        return Experiment(
-            designers=tuple(_with_designer_params(chosen, self.designer_param)),
-            envs=tuple(e.with_params(env_params) for e in envs),
-            controller=controller,
-            shape=parse_shape(self.shape) if "shape" in self.explicit or base.shape is None else base.shape,
-            population=self._given("population", base.population),
-            budget=self._given("budget", base.budget),
-            seeds=tuple(seeds),
-            stop_at_optimum=self._given("stop_at_optimum", base.stop_at_optimum),
-        )
-
-    def resumed(self, designers: str, stored: Experiment) -> Experiment:
-        """The resumed run's experiment: ``stored``, with the seeds ``--seeds`` adds."""
-        fixed = sorted(RESUME_FIXED & self.explicit)
-        if designers and tuple(PluginChoice.parse_list(designers)) != stored.designers:
-            fixed.insert(0, "designers")
-        if fixed:
-            given = ", ".join(f"--{name.replace('_', '-')}" for name in fixed)
-            raise ConfigError(
-                f"--resume takes the experiment from the run; {given} cannot change it (--seeds can add seeds)"
-            )
-        if not {"seeds", "repetitions"} & self.explicit:
-            return stored
-        return with_added_seeds(stored, replace(stored, seeds=tuple(parse_seeds(self.seeds, self.repetitions))))
-
-    def execution(self, base: ExperimentFile) -> Execution:
-        values = {**base.execution}
-        for name in EXECUTION_KEYS:
-            if name in self.explicit or name not in values:
-                values[name] = getattr(self, name)
-        if values["cache"] is not None:
-            values["cache"] = str(values["cache"])
-        return Execution(**values)
-
-
-#: options that define the experiment, which a resumed run takes from its directory
-RESUME_FIXED = frozenset({"config", "env", "suite", "controller", "budget", "population", "shape", "out",
-                          "designer_param", "env_param", "controller_param", "stop_at_optimum"})
 
 #: typer's view of RunOptions: option names and help, in the order --help lists them
 RUN_OPTIONS: dict[str, Any] = {
@@ -290,7 +217,7 @@ RUN_OPTIONS: dict[str, Any] = {
     ),
     "budget": _option("--budget", help="Evaluations per trial (unique valid bodies)."),
     "population": _option("--population", help="Bodies per generation."),
-    "seeds": _option("--seeds", help="Seeds: 0,1,2 or 0..9 (default: 0)."),
+    "seeds": _option("--seeds", help=f"Seeds: 0,1,2 or 0..9 (default: {format_seeds(DEFAULTS['seeds'])})."),
     "repetitions": _option("--repetitions", "-r", help="Number of seeds: 0..N-1 (instead of --seeds)."),
     "shape": _option("--shape", help="Body shape HxW."),
     "out": _option("--out", "-o", help="Run directory (default: results/<time>-<env>-<designers>)."),
@@ -365,55 +292,20 @@ def with_run_options(command: Callable[..., None]) -> Callable[..., None]:
     return wrapper
 
 
-def _with_designer_params(choices: list[PluginChoice], designer_params: list[str] | None) -> list[PluginChoice]:
-    if not choices:
-        raise ConfigError("give --designers, e.g. --designers ga,cppn,gda (or designers in --config)")
-    shared: dict[str, Any] = {}
-    targeted: dict[str, dict[str, Any]] = {}
-    for item in designer_params or []:
-        key = item.partition("=")[0]
-        if "." in key:
-            target, _, rest = item.partition(".")
-            if not any(target in (c.name, c.label) for c in choices):
-                raise ConfigError(f"--designer-param {item!r} names designer {target!r}, which is not in this run")
-            targeted.setdefault(target, {}).update(parse_params([rest], "designer parameter"))
-        else:
-            shared.update(parse_params([item], "designer parameter"))
-    return [c.with_params({**shared, **targeted.get(c.name, {}), **targeted.get(c.label, {})}) for c in choices]
-
-
 def _execute(designers: str, options: RunOptions) -> None:
     guard = _Guard(options.resume or options.out)
     with guard:
-        base = options.file()
-        execution = options.execution(base)
-        done: dict[tuple[str, str, int], int] = {}
-        if options.resume is not None:
-            run = RunDirectory.open(options.resume)
-            experiment = options.resumed(
-                designers, Experiment.from_json(run.meta["config"], f"{run.path / 'run.json'}: config")
-            )
-            frame = run.load_evaluations()
-            if len(frame):
-                done = {
-                    (str(k[0]), str(k[1]), int(k[2])): int(v)
-                    for k, v in frame.groupby(["env", "designer", "seed"])["n_evals"].max().items()
-                }
-        else:
-            experiment = options.experiment(designers, base)
-        out = (
-            options.resume
-            or (options.out if "out" in options.explicit or base.out is None else base.out)
-            or default_out_dir(experiment)
-        )
-        guard.run_dir = out
+        setup = build_run(options.given(designers))
+        guard.run_dir = setup.out
+        done = RunDirectory.open(setup.out).evaluations_made() if options.resume is not None else {}
         reg = registry()
         for name in dict.fromkeys(options.log or []):
             reg.pm.register(make_logger(name), name=f"gdabench-log-{name}")
-        with ProgressDisplay(experiment, done, console=err_console, quiet=options.quiet) as display:
-            run = run_compare(experiment, out, resume=options.resume is not None, execution=execution, listener=display,
-                              command=["gdabench", *sys.argv[1:]], reg=reg)
-        for env, reason in _uncached(run, execution):
+        with ProgressDisplay(setup.experiment, done, console=err_console, quiet=options.quiet) as display:
+            run = run_compare(setup.experiment, setup.out, resume=options.resume is not None,
+                              execution=setup.execution, listener=display, command=["gdabench", *sys.argv[1:]],
+                              reg=reg)  # fmt: skip
+        for env, reason in _uncached(setup):
             err_console.print(
                 f"[yellow]note:[/] {escape(reason)}; the evaluation cache was not used for {escape(env)}",
                 highlight=False,
@@ -433,12 +325,12 @@ def _execute(designers: str, options: RunOptions) -> None:
     _report_failures(run)
 
 
-def _uncached(run: RunDirectory, execution: Execution) -> list[tuple[str, str]]:
-    if execution.cache is None:
+def _uncached(setup: RunSetup) -> list[tuple[str, str]]:
+    if setup.execution.cache is None:
         return []
     from .plan import Plan
 
-    plan = Plan.resolve(Experiment.from_json(run.meta["config"]), registry(), designers=False)
+    plan = Plan.resolve(setup.experiment, registry(), designers=False)
     return sorted(plan.uncacheable.items())
 
 
@@ -512,11 +404,10 @@ def run(
 
 @app.command()
 def evaluate(
-    ctx: typer.Context,
     body: Annotated[
         str, typer.Argument(help="Body in text form, rows separated by '/', e.g. 44444/44444/44444/44444/44444.")
     ],
-    env: Annotated[str, RUN_OPTIONS["env"]] = "simple",
+    env: Annotated[str, RUN_OPTIONS["env"]] = DEFAULTS["env"],
     controller: Annotated[Optional[str], RUN_OPTIONS["controller"]] = None,
     env_param: Annotated[Optional[list[str]], RUN_OPTIONS["env_param"]] = None,
     controller_param: Annotated[Optional[list[str]], RUN_OPTIONS["controller_param"]] = None,
@@ -532,10 +423,10 @@ def evaluate(
 
         parsed = Body.from_text(body)
         check_seed(seed)
-        typed = _typed(ctx, ["env", "controller", "env_param", "controller_param"])
-        options = RunOptions(env=env, controller=controller, env_param=env_param, controller_param=controller_param,
-                             shape=f"{parsed.shape[0]}x{parsed.shape[1]}", population=1, budget=1, explicit=typed)
-        plan = Plan.resolve(options.experiment("random", ExperimentFile(None)), registry(), designers=False)
+        experiment = build_run({"designers": "random", "env": env, "controller": controller, "env_param": env_param,
+                                "controller_param": controller_param, "shape": parsed.shape, "population": 1,
+                                "budget": 1}).experiment  # fmt: skip
+        plan = Plan.resolve(experiment, registry(), designers=False)
         scorer, _ = plan.scorers()
         reason = scorer.invalid_reason(parsed)
         if reason is not None:

@@ -23,6 +23,12 @@ MAX_SIDE = 64
 MAX_SEED = 2**32 - 1
 MAX_SEEDS = 10_000
 
+#: what an experiment is where neither the command line, gdabench.compare nor an experiment file says
+DEFAULT_ENV = "simple"
+DEFAULT_POPULATION = 25
+DEFAULT_BUDGET = 1_000
+DEFAULT_SEEDS = (0,)
+
 
 def parse_value(text: str) -> Any:
     """Parse a parameter value: JSON (numbers, true/false/null, lists) or else a plain string."""
@@ -152,7 +158,7 @@ def parse_seeds(text: str | Sequence[int] | None, repetitions: int | None = None
             raise ConfigError(f"repetitions must be from 1 to {MAX_SEEDS}, got {repetitions}")
         return list(range(repetitions))
     if text is None or text == "":
-        return [0]
+        return list(DEFAULT_SEEDS)
     if not isinstance(text, str):
         seeds = list(text)
     else:
@@ -193,9 +199,9 @@ class Experiment:
     envs: tuple[PluginChoice, ...]
     controller: PluginChoice | None = None
     shape: tuple[int, int] = DEFAULT_SHAPE
-    population: int = 25
-    budget: int = 1000
-    seeds: tuple[int, ...] = (0,)
+    population: int = DEFAULT_POPULATION
+    budget: int = DEFAULT_BUDGET
+    seeds: tuple[int, ...] = DEFAULT_SEEDS
     #: end a run once it reaches the environment's optimum (the rest of its budget is not spent)
     stop_at_optimum: bool = False
 

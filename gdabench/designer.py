@@ -14,6 +14,7 @@ from typing import Any, Callable, Mapping, Sequence, TypeVar, cast
 import numpy as np
 
 from .body import DEFAULT_SHAPE, Body
+from .config import DEFAULT_BUDGET, DEFAULT_POPULATION
 from .errors import ConfigError
 
 T = TypeVar("T")
@@ -30,8 +31,8 @@ class Designer(abc.ABC):
         self,
         *,
         shape: tuple[int, int] = DEFAULT_SHAPE,
-        population: int = 25,
-        budget: int = 1000,
+        population: int = DEFAULT_POPULATION,
+        budget: int = DEFAULT_BUDGET,
         seed: np.random.SeedSequence | int | None = 0,
     ):
         if population < 1:

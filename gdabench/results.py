@@ -419,6 +419,14 @@ class RunDirectory:
             return pd.DataFrame({c: pd.Series(dtype=object) for c in COLUMNS})
         return core_first(pd.concat(frames, ignore_index=True))
 
+    def evaluations_made(self) -> dict[tuple[str, str, int], int]:
+        """Evaluations each trial has made so far, by (env, designer, seed): where resuming it starts."""
+        frame = self.load_evaluations()
+        if not len(frame):
+            return {}
+        made = frame.groupby(TRIAL_KEY)["n_evals"].max()
+        return {(str(e), str(d), int(s)): int(n) for (e, d, s), n in made.items()}
+
     def append_generation(self, name: str, generation: int, rows: Sequence[Mapping[str, Any]]) -> None:
         """Write one generation's rows of an unfinished trial."""
         frame = core_first(pd.DataFrame.from_records(rows))

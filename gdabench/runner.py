@@ -19,29 +19,23 @@ import threading
 import time
 import uuid
 from collections import deque
-from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any, Iterator, Sequence
 
 from . import faults
-from .config import Experiment, format_seeds
+from .config import Experiment
 from .errors import ConfigError, GdabenchError, RunDirectoryError, Terminated, TrialError, one_line
 from .events import Listeners, PluginHooks, RunListener
 from .execution import cores, spawning
 from .execution.options import Execution, cpu_count
 from .execution.outcomes import RunOutcomes
 from .execution.trials import BodiesDone, InProcess, LocalProcesses, TrialHost, TrialWorkers
+from .experiment_build import default_out_dir, stored_experiment, with_added_seeds
 from .plan import Plan, TrialSpec
 from .plugins import Registry, registry
 from .report.summary import failure_counts, nothing_measured, summarize
 from .results import SUMMARY, Checkpoint, RunDirectory, no_space, platform_info, utc_now, versions, write_error
 from .trial import GenerationResult
-
-
-def default_out_dir(experiment: Experiment, root: str | Path = "results") -> Path:
-    envs = "+".join(e.name.replace("/", "_") for e in experiment.envs)
-    names = "-".join(d.name for d in experiment.designers)
-    return Path(root) / f"{time.strftime('%Y%m%d-%H%M%S')}-{envs}-{names}"
 
 
 def _new_meta(plan: Plan, reg: Registry, command: Sequence[str] | None, execution: dict[str, Any]) -> dict[str, Any]:
@@ -99,7 +93,7 @@ def compare(
             raise RunDirectoryError("resume needs the run directory")
         run = RunDirectory.open(out)
         meta = run.meta
-        stored = Experiment.from_json(meta["config"], f"{run.path / 'run.json'}: config")
+        stored = stored_experiment(run)
         experiment = with_added_seeds(stored, experiment)
         if meta.get("status") == "complete" and experiment == stored:
             if not run.evaluations_path.exists():
@@ -159,29 +153,6 @@ def compare(
         run.unlock()
     listener.run_finished(run.path, status, summary)
     return run
-
-
-def with_added_seeds(stored: Experiment, given: Experiment | None) -> Experiment:
-    """``stored`` with the seeds ``given`` adds after its own, so finished trials keep their rows.
-
-    A resume cannot change anything else, nor drop a seed: the table would mix two experiments.
-    """
-    if given is None or given == stored:
-        return stored
-    changed = [
-        f.name for f in fields(Experiment) if f.name != "seeds" and getattr(given, f.name) != getattr(stored, f.name)
-    ]
-    if changed:
-        raise ConfigError(
-            f"a resumed run keeps its experiment ({', '.join(changed)} would change); only seeds can be added"
-        )
-    dropped = [s for s in stored.seeds if s not in given.seeds]
-    if dropped:
-        raise ConfigError(
-            f"the run has seeds {format_seeds(stored.seeds)}; resuming can add seeds but not drop "
-            f"{format_seeds(dropped)}"
-        )
-    return replace(stored, seeds=stored.seeds + tuple(s for s in given.seeds if s not in stored.seeds))
 
 
 def _failure_line(plan: Plan, failures: dict[int, str]) -> str:

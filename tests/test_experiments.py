@@ -54,6 +54,26 @@ def test_the_command_line_overrides_the_file(tmp_path):
     assert table.groupby("seed")["n_evals"].max().eq(30).all()
 
 
+def test_an_option_is_as_given_else_from_the_file_else_the_default(tmp_path):
+    from gdabench.experiment_build import DEFAULTS, build_run
+
+    config = tmp_path / "exp.toml"
+    config.write_text('designers = ["ga"]\nbudget = 500\n[execution]\nworkers = 2\n')
+    setup = build_run({"config": config, "budget": 30, "jobs": 3})
+    assert (setup.experiment.budget, setup.experiment.population) == (30, DEFAULTS["population"])
+    assert (setup.execution.jobs, setup.execution.workers) == (3, 2)
+    assert build_run({"config": config}).experiment.budget == 500
+
+
+def test_options_mean_the_same_as_text_and_as_python_values():
+    from gdabench.experiment_build import build_run
+
+    text = build_run({"designers": "ga,random", "env": "nk[k=4]", "seeds": "0..2", "shape": "4x6"}).experiment
+    values = build_run({"designers": [PluginChoice("ga"), "random"], "env": PluginChoice.parse("nk[k=4]"),
+                        "seeds": range(3), "shape": (4, 6)}).experiment  # fmt: skip
+    assert text == values
+
+
 @pytest.mark.parametrize(
     "content, fragment",
     [
@@ -153,24 +173,22 @@ def test_the_report_of_a_suite_has_a_page_per_environment_and_one_across_them(tm
 
 @pytest.mark.parametrize("path", sorted((Path(__file__).parent.parent / "experiments").glob("*.toml")), ids=lambda p: p.name)
 def test_every_committed_experiment_resolves_into_a_plan(path):
-    from gdabench.cli import RunOptions
-    from gdabench.experiment_file import load
+    from gdabench.experiment_build import build_run
     from gdabench.plan import Plan
     from gdabench.plugins import registry
 
-    experiment = RunOptions().experiment("", load(path))
+    experiment = build_run({"config": path}).experiment
     plan = Plan.resolve(experiment, registry())
     assert len(plan.trials) == len(experiment.designers) * len(experiment.envs) * len(experiment.seeds) > 0
 
 
 def test_the_walker_experiment_is_the_thesis_co_design_and_its_budget_per_body_can_be_overridden():
-    from gdabench.cli import RunOptions
-    from gdabench.experiment_file import load
+    from gdabench.experiment_build import build_run
 
     path = Path(__file__).parent.parent / "experiments" / "walker.toml"
-    faithful = RunOptions().experiment("", load(path))
+    faithful = build_run({"config": path}).experiment
     assert [d.name for d in faithful.designers] == ["ga", "cppn", "gda"] and [e.name for e in faithful.envs] == ["walker"]
     assert faithful.controller.name == "ppo" and faithful.controller.params["timesteps"] == 1_000_000
     assert (faithful.population, faithful.budget) == (25, 125)
-    quick = RunOptions(controller_param=["timesteps=50000"], explicit=frozenset({"controller_param"})).experiment("", load(path))
+    quick = build_run({"config": path, "controller_param": ["timesteps=50000"]}).experiment
     assert quick.controller.params["timesteps"] == 50000

@@ -116,10 +116,9 @@ def test_comparisons_pair_by_seed_orient_a12_and_correct_per_designer(table):
 
 
 def test_the_committed_experiment_follows_the_scripts_rule(table):
-    from gdabench.cli import RunOptions
-    from gdabench.experiment_file import load
+    from gdabench.experiment_build import build_run
 
-    experiment = RunOptions().experiment("", load(BENCHMARKS.parent / "experiments" / "scaling.toml"))
+    experiment = build_run({"config": BENCHMARKS.parent / "experiments" / "scaling.toml"}).experiment
     assert (experiment.population, experiment.budget) == table.scaled(experiment.shape, 40, 1.0)
     assert ",".join(e.label for e in experiment.envs) == table.DEFAULT_ENVS
     assert table.shape_text(experiment.shape) in table.DEFAULT_SIZES.split(",")

@@ -1,0 +1,217 @@
+"""Building a run from what the user gave: the one place an option becomes part of an experiment.
+
+The command line, :func:`gdabench.compare` and ``--resume`` all go through :func:`build_run`,
+so an option means the same wherever it is given.  Each option is taken as given, else from the
+experiment file (``config``), else from :data:`DEFAULTS`; a resumed run keeps the experiment
+its directory records, to which only seeds can be added.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, fields, replace
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any, Mapping, Sequence
+
+from .body import DEFAULT_SHAPE, parse_shape
+from .config import (
+    DEFAULT_BUDGET,
+    DEFAULT_ENV,
+    DEFAULT_POPULATION,
+    DEFAULT_SEEDS,
+    Experiment,
+    PluginChoice,
+    format_seeds,
+    parse_params,
+    parse_seeds,
+)
+from .errors import ConfigError
+from .execution.options import Execution
+from .experiment_file import EXECUTION_KEYS, ExperimentFile, load
+from .plugins import Registry, registry
+from .results import RunDirectory
+
+#: each option's value where neither the user nor the experiment file gives one
+DEFAULTS: Mapping[str, Any] = MappingProxyType({
+    "env": DEFAULT_ENV,
+    "shape": DEFAULT_SHAPE,
+    "population": DEFAULT_POPULATION,
+    "budget": DEFAULT_BUDGET,
+    "seeds": DEFAULT_SEEDS,
+    "stop_at_optimum": False,
+    **{f.name: f.default for f in fields(Execution)},
+})  # fmt: skip
+
+#: the options :func:`build_run` reads
+OPTIONS = frozenset({"config", "resume", "designers", "suite", "controller", "repetitions", "out", "designer_param",
+                     "env_param", "controller_param", *DEFAULTS})  # fmt: skip
+
+#: options that define the experiment, which a resumed run takes from its directory
+RESUME_FIXED = frozenset({"config", "env", "suite", "controller", "budget", "population", "shape", "out",
+                          "designer_param", "env_param", "controller_param", "stop_at_optimum"})  # fmt: skip
+
+Choices = str | PluginChoice | Sequence[str | PluginChoice]
+
+
+@dataclass(frozen=True)
+class RunSetup:
+    """What to run, how, and into which directory."""
+
+    experiment: Experiment
+    execution: Execution
+    out: Path
+
+
+def build_run(given: Mapping[str, Any], *, reg: Registry | None = None) -> RunSetup:
+    """The run ``given`` asks for: option name -> value, only the options the user gave.
+
+    Values are as on the command line (``"ga,gda[epochs=50]"``, ``"0..9"``, ``"5x5"``) or as
+    Python has them (choices, seed lists, shape pairs).  ``given["resume"]`` names a run
+    directory to continue.  Errors are :class:`~gdabench.errors.ConfigError` lines naming the option.
+    """
+    unknown = sorted(set(given) - OPTIONS)
+    if unknown:
+        raise TypeError(f"build_run() got unknown options: {', '.join(unknown)}")
+    file = load(given["config"]) if given.get("config") is not None else ExperimentFile(None)
+    execution = _execution(given, file)
+    if given.get("resume") is not None:
+        run = RunDirectory.open(given["resume"])
+        return RunSetup(_resumed(stored_experiment(run), given), execution, Path(given["resume"]))
+    experiment = _experiment(given, file, reg)
+    return RunSetup(experiment, execution, Path(given.get("out") or file.out or default_out_dir(experiment)))
+
+
+def stored_experiment(run: RunDirectory) -> Experiment:
+    """The experiment a run directory records: what resuming it continues."""
+    return Experiment.from_json(run.meta["config"], f"{run.path / 'run.json'}: config")
+
+
+def with_added_seeds(stored: Experiment, given: Experiment | None) -> Experiment:
+    """``stored`` with the seeds ``given`` adds after its own, so finished trials keep their rows.
+
+    A resume cannot change anything else, nor drop a seed: the table would mix two experiments.
+    """
+    if given is None or given == stored:
+        return stored
+    changed = [
+        f.name for f in fields(Experiment) if f.name != "seeds" and getattr(given, f.name) != getattr(stored, f.name)
+    ]
+    if changed:
+        raise ConfigError(
+            f"a resumed run keeps its experiment ({', '.join(changed)} would change); only seeds can be added"
+        )
+    dropped = [s for s in stored.seeds if s not in given.seeds]
+    if dropped:
+        raise ConfigError(
+            f"the run has seeds {format_seeds(stored.seeds)}; resuming can add seeds but not drop "
+            f"{format_seeds(dropped)}"
+        )
+    return replace(stored, seeds=stored.seeds + tuple(s for s in given.seeds if s not in stored.seeds))
+
+
+def default_out_dir(experiment: Experiment, root: str | Path = "results") -> Path:
+    """``results/<time>-<envs>-<designers>``: where a run goes unless told."""
+    envs = "+".join(e.name.replace("/", "_") for e in experiment.envs)
+    names = "-".join(d.name for d in experiment.designers)
+    return Path(root) / f"{time.strftime('%Y%m%d-%H%M%S')}-{envs}-{names}"
+
+
+def _choices(value: Choices) -> tuple[PluginChoice, ...]:
+    """Plugin choices from text (``"ga,gda[epochs=50]"``), a choice, or a sequence of either."""
+    items = [value] if isinstance(value, (str, PluginChoice)) else list(value)
+    out: list[PluginChoice] = []
+    for item in items:
+        out += PluginChoice.parse_list(item) if isinstance(item, str) else [item]
+    return tuple(out)
+
+
+def _pick(name: str, given: Mapping[str, Any], from_file: Any) -> Any:
+    """An option's value: as given, else from the file, else the default."""
+    if name in given:
+        return given[name]
+    return DEFAULTS[name] if from_file is None else from_file
+
+
+def _execution(given: Mapping[str, Any], file: ExperimentFile) -> Execution:
+    defaults = {name: DEFAULTS[name] for name in EXECUTION_KEYS}
+    return Execution(**{**defaults, **file.execution, **{n: given[n] for n in EXECUTION_KEYS if n in given}})
+
+
+def _given_seeds(given: Mapping[str, Any]) -> tuple[int, ...] | None:
+    """The seeds ``seeds`` or ``repetitions`` name; None where neither is given."""
+    if not {"seeds", "repetitions"} & set(given):
+        return None
+    seeds = given.get("seeds")
+    text = seeds if seeds is None or isinstance(seeds, str) else list(seeds)
+    return tuple(parse_seeds(text, given.get("repetitions")))
+
+
+def _experiment(given: Mapping[str, Any], file: ExperimentFile, reg: Registry | None) -> Experiment:
+    suite_name = given["suite"] if "suite" in given else file.suite
+    suite = (reg or registry()).get("suite", suite_name).spec if suite_name else None
+    if "env" in given:
+        envs = _choices(given["env"])
+    elif suite is not None and ("suite" in given or file.envs is None):
+        envs = tuple(PluginChoice.parse(e) for e in suite.envs)
+    else:
+        envs = file.envs or _choices(DEFAULTS["env"])
+    env_params = parse_params(given.get("env_param"), "environment parameter")
+    designers = _choices(given["designers"]) if given.get("designers") else file.designers or ()
+    seeds = _given_seeds(given)
+    return Experiment(
+        designers=_with_designer_params(designers, given.get("designer_param")),
+        envs=tuple(e.with_params(env_params) for e in envs),
+        controller=_controller(given, file, suite.controller if suite is not None else None),
+        shape=parse_shape(_pick("shape", given, file.shape)),
+        population=_pick("population", given, file.population),
+        budget=_pick("budget", given, file.budget),
+        seeds=seeds if seeds is not None else file.seeds or DEFAULTS["seeds"],
+        stop_at_optimum=_pick("stop_at_optimum", given, file.stop_at_optimum),
+    )
+
+
+def _controller(given: Mapping[str, Any], file: ExperimentFile, suite_controller: str | None) -> PluginChoice | None:
+    """The controller as given, else the file's, else the suite's; with ``controller_param`` added."""
+    value = given.get("controller") or file.controller
+    controller = PluginChoice.parse(value) if isinstance(value, str) else value
+    if controller is None and suite_controller:
+        controller = PluginChoice.parse(suite_controller)
+    extra = given.get("controller_param")
+    if extra:
+        if controller is None:
+            raise ConfigError("--controller-param given without --controller")
+        controller = controller.with_params(parse_params(extra, "controller parameter"))
+    return controller
+
+
+def _with_designer_params(designers: Sequence[PluginChoice], items: Sequence[str] | None) -> tuple[PluginChoice, ...]:
+    """Each designer with the ``KEY=VALUE`` parameters for all designers and ``NAME.KEY=VALUE`` for it."""
+    if not designers:
+        raise ConfigError("give --designers, e.g. --designers ga,cppn,gda (or designers in --config)")
+    shared: dict[str, Any] = {}
+    targeted: dict[str, dict[str, Any]] = {}
+    for item in items or ():
+        key = item.partition("=")[0]
+        if "." in key:
+            target, _, rest = item.partition(".")
+            if not any(target in (d.name, d.label) for d in designers):
+                raise ConfigError(f"--designer-param {item!r} names designer {target!r}, which is not in this run")
+            targeted.setdefault(target, {}).update(parse_params([rest], "designer parameter"))
+        else:
+            shared.update(parse_params([item], "designer parameter"))
+    return tuple(d.with_params({**shared, **targeted.get(d.name, {}), **targeted.get(d.label, {})}) for d in designers)
+
+
+def _resumed(stored: Experiment, given: Mapping[str, Any]) -> Experiment:
+    """The resumed run's experiment: ``stored``, with the seeds ``given`` adds."""
+    fixed = sorted(RESUME_FIXED & set(given))
+    if given.get("designers") and _choices(given["designers"]) != stored.designers:
+        fixed.insert(0, "designers")
+    if fixed:
+        named = ", ".join(f"--{name.replace('_', '-')}" for name in fixed)
+        raise ConfigError(
+            f"--resume takes the experiment from the run; {named} cannot change it (--seeds can add seeds)"
+        )
+    seeds = _given_seeds(given)
+    return stored if seeds is None else with_added_seeds(stored, replace(stored, seeds=seeds))
