@@ -56,6 +56,10 @@ def _orthogonal(layer: nn.Linear, gain: float) -> nn.Linear:
 class ActorCritic(nn.Module):
     """The trainable parameters of one body's controller (what is saved and reloaded)."""
 
+    obs_mean: torch.Tensor
+    obs_var: torch.Tensor
+    obs_count: torch.Tensor
+
     def __init__(self, n_obs: int, n_act: int, hidden: Sequence[int] = (64, 64)):
         super().__init__()
         self.n_obs, self.n_act, self.hidden = int(n_obs), int(n_act), tuple(int(h) for h in hidden)
