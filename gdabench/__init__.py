@@ -24,6 +24,7 @@ from .errors import (
     RunDirectoryError,
     UnknownPluginError,
 )
+from .execution.evaluation import report_progress
 from .hookspecs import hookimpl
 from .plugins import registry
 from .seeding import designer_seed
@@ -98,5 +99,6 @@ __all__ = [
     "random_body",
     "ranking_rewards",
     "registry",
+    "report_progress",
     "top_k",
 ]

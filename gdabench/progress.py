@@ -57,11 +57,9 @@ class ProgressDisplay(RunListener):
     def bodies(self, spec: TrialSpec, progress: BodiesDone) -> None:
         """A generation's bodies one by one: the bars move while a slow generation (physics) runs."""
         before = self.done.get(spec.key, 0)
-        self.progress.update(
-            self.lines[spec.index],
-            completed=before + progress.done,
-            description=escape(f"  {spec.title} gen {progress.generation}: body {progress.done}/{progress.total}"),
-        )
+        line = f"  {spec.title} gen {progress.generation}: body {progress.done}/{progress.total}"
+        note = f", {progress.note}" if progress.note else ""
+        self.progress.update(self.lines[spec.index], completed=before + progress.done, description=escape(line + note))
         self.progress.update(self.total, completed=sum(self.done.values()) + progress.done)
 
     def generation(self, spec: TrialSpec, result: GenerationResult) -> None:

@@ -163,3 +163,22 @@ def test_progress_is_told_body_by_body_while_a_generation_runs(tmp_path, jobs):
         assert reports == [(done, total) for done in range(replayed, total + 1)], key  # then one by one
     if jobs == 1:  # one after the other: random replays ga's generation 0, which it shares
         assert listener.reports[("random seed 0", 0)] == [(10, 10)]
+
+
+class Notes(RunListener):
+    def __init__(self):
+        self.notes = []
+
+    def bodies(self, spec, progress):
+        if progress.note:
+            self.notes.append((progress.done, progress.total, progress.note))
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_a_generation_learning_in_lockstep_tells_its_timesteps_and_speed(tmp_path, jobs):
+    listener = Notes()
+    gdabench.compare(designers="random", env="walker", controller="ppo[timesteps=512]", seeds=[0, 1][:jobs], budget=3,
+                     population=3, out=tmp_path / "r", listener=listener, execution=Execution(jobs=jobs))
+    # the batch's last rollout is always told (others every 2 s at most), while the generation's 3 bodies run
+    finals = [n for n in listener.notes if n[2].startswith("3 bodies learning 512/512 timesteps, ")]
+    assert len(finals) == jobs and all(n[:2] == (0, 3) for n in finals) and finals[0][2].endswith(" env steps/s")

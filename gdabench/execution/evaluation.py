@@ -12,11 +12,12 @@ per process and reused.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Callable, Iterator, Mapping, Sequence
 
 from ..body import Body
 from ..environment import Environment, Evaluation
@@ -53,6 +54,25 @@ Evaluate = Callable[[Sequence[EvalTask]], list[EvalOutcome]]
 
 
 _built: dict[str, Any] = {}
+_progress: list[Callable[[str], None]] = []
+
+
+def report_progress(note: str) -> None:
+    """Say how a long evaluation is going (e.g. a batch's training timesteps and speed).  The progress
+    display shows it beside its trial while the bodies are evaluated in the trial's own process (the
+    default ``--workers 1``); elsewhere it goes nowhere.  Cheap: call it every few seconds at most."""
+    if _progress:
+        _progress[-1](note)
+
+
+@contextlib.contextmanager
+def progress_to(callback: Callable[[str], None]) -> Iterator[None]:
+    """Route :func:`report_progress` notes made inside the block to ``callback``."""
+    _progress.append(callback)
+    try:
+        yield
+    finally:
+        _progress.pop()
 
 
 def instance(recipe: Factory, prebuilt: Mapping[str, Any] | None = None) -> Any:

@@ -29,7 +29,7 @@ from ..results import Checkpoint, RunDirectory
 from ..trial import GenerationResult, Trial
 from . import cores, spawning
 from .cache import EvaluationCache
-from .evaluation import EvalOutcome, EvalTask, Evaluate, instance
+from .evaluation import EvalOutcome, EvalTask, Evaluate, instance, progress_to
 from .executor import Executor
 from .options import Execution, make_executor
 from .outcomes import RunOutcomes
@@ -38,12 +38,14 @@ from .pool import death_message, exit_when_orphaned
 
 @dataclass(frozen=True)
 class BodiesDone:
-    """Progress inside a generation, sent while it runs: ``done`` of its ``total`` new bodies are evaluated."""
+    """Progress inside a generation, sent while it runs: ``done`` of its ``total`` new bodies are evaluated;
+    ``note``: what the evaluation running now says about itself (:func:`.evaluation.report_progress`)."""
 
     trial: int  # the spec's index
     generation: int
     done: int
     total: int
+    note: str = ""
 
 
 class TrialHost:
@@ -60,6 +62,7 @@ class TrialHost:
         self.progress: Callable[[BodiesDone], None] | None = None
         self._executor: Executor | None = None
         self._evaluate: Evaluate | None = None
+        self._done = (0, 0)
 
     def open(self, spec: TrialSpec, checkpoint: Checkpoint | None, done: pd.DataFrame | None) -> None:
         """Start ``spec``'s trial, or continue it from ``checkpoint`` (``done``: its rows so far)."""
@@ -89,14 +92,19 @@ class TrialHost:
         strategy = controller.evaluation_strategy() if controller else None
         self._evaluate = evaluate if strategy is None else functools.partial(strategy.evaluate, evaluate=evaluate)
 
-    def _report(self, done: int, total: int) -> None:
+    def _report(self, done: int, total: int, note: str = "") -> None:
+        self._done = (done, total)
         if self.progress is not None and self.trial is not None:
-            self.progress(BodiesDone(self.trial.spec.index, self.trial.generation, done, total))
+            self.progress(BodiesDone(self.trial.spec.index, self.trial.generation, done, total, note))
+
+    def _note(self, note: str) -> None:
+        self._report(*self._done, note)
 
     def step(self) -> GenerationResult:
         """Run the open trial's next generation."""
         assert self.trial is not None and self._evaluate is not None, "open a trial first"
-        result = self.trial.step(self._evaluate)
+        with progress_to(self._note):
+            result = self.trial.step(self._evaluate)
         if result.finished:
             self.trial = None
             cores.release()

@@ -11,12 +11,14 @@ animate a body, and how a resumed run skips bodies it already trained.
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from ...environment import Bodies, Controller, Evaluation
 from ...envs.batched import BodyBatch, GymBodies
 from ...errors import ConfigError
+from ...execution.evaluation import report_progress
 from ...params import config_signature
 from ...torch_runtime import resolve_device
 from .config import PPOConfig
@@ -121,7 +123,10 @@ class PPO(Controller):
             return lambda n: GymBodies([bodies.make_envs[i] for i in part], n)
 
         def run(part: list[int]) -> list[TrainResult]:
-            return train(self.config, batch(part), [seeds[i] for i in part], pad=bodies.pad, device=self.device)
+            return train(
+                self.config, batch(part), [seeds[i] for i in part], pad=bodies.pad, device=self.device,
+                on_rollout=_progress_notes(len(part), self.config.rollouts * self.config.rollout_steps),
+            )
 
         try:
             return list(run(indices))
@@ -162,6 +167,22 @@ class PPO(Controller):
             "ppo_eval_seconds": round(result.seconds["evaluate"] / batch, 3),
             "replayed": 0,
         }
+
+
+def _progress_notes(bodies: int, timesteps: int) -> Callable[[int], None]:
+    """A training's ``on_rollout``: its timesteps and speed for the progress display, every 2 s at most."""
+    start = last = time.perf_counter()
+
+    def note(steps: int) -> None:
+        nonlocal last
+        now = time.perf_counter()
+        if now - last >= 2.0 or steps >= timesteps:
+            last = now
+            rate = bodies * steps / max(now - start, 1e-9)
+            who = f"{bodies} bodies" if bodies > 1 else "1 body"
+            report_progress(f"{who} learning {steps:,}/{timesteps:,} timesteps, {rate:,.0f} env steps/s")
+
+    return note
 
 
 # the harness reads a factory's keyword parameters from its signature: expose PPOConfig's fields
