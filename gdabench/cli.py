@@ -418,8 +418,10 @@ def evaluate(
         from . import seeding
         from .body import Body
         from .config import check_seed
-        from .execution.evaluation import OK, EvalTask, evaluate as evaluate_task
+        from .execution.evaluation import evaluate as evaluate_task
+        from .execution.tasks import EvalTask
         from .plan import Plan
+        from .statuses import OK
 
         parsed = Body.from_text(body)
         check_seed(seed)

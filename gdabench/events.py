@@ -13,9 +13,10 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from .execution.trials import BodiesDone
-    from .plan import Plan, TrialSpec
+    from .plan import Plan
     from .plugins import Registry
     from .trial import GenerationResult
+    from .trial_spec import TrialSpec
 
 
 class RunListener:

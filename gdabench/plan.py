@@ -9,15 +9,12 @@ trials build them, for ``evaluate``, ``replay`` and the report.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, cast
 
-from . import seeding
 from .config import Experiment, PluginChoice
-from .designer import Designer
 from .environment import Controller, Environment
-from .errors import ConfigError, GdabenchError, PluginError, one_line
+from .errors import ConfigError, PluginError
 from .execution.cache import recipe_identity
 from .execution.spawning import from_script
 from .names import file_name
@@ -25,6 +22,7 @@ from .params import check_params
 from .plugins import Registry, registry
 from .results import RunDirectory
 from .specs import Factory
+from .trial_spec import DesignerRecipe, EnvRecipe, TrialSpec, build_plugin
 
 #: keyword arguments the harness itself passes to designer and environment factories
 HARNESS_DESIGNER_ARGS = ("shape", "population", "budget", "seed")
@@ -33,86 +31,6 @@ HARNESS_ENV_ARGS = ("shape",)
 
 def _json(params: Mapping[str, Any]) -> str:
     return json.dumps(dict(params), sort_keys=True, default=str)
-
-
-def _build(kind: str, label: str, recipe: Factory, **harness: Any) -> Any:
-    """Build a plugin object; a constructor's refusal of its parameters is a one-line input error."""
-    try:
-        return recipe.build(**harness)
-    except GdabenchError:
-        raise
-    except (ValueError, TypeError) as exc:
-        raise ConfigError(f"{kind} {label!r}: bad parameter: {one_line(exc)}") from None
-    except Exception as exc:  # noqa: BLE001 - a plugin that cannot even be built is the plugin's fault
-        raise PluginError(f"{kind} {label!r} could not be built: {one_line(exc)}") from None
-
-
-@dataclass(frozen=True)
-class DesignerRecipe:
-    """A designer as resolved: label, registered name, factory and its converted parameters."""
-
-    label: str
-    name: str
-    factory: Factory
-
-    @property
-    def params(self) -> dict[str, Any]:
-        return dict(self.factory.params)
-
-    def build(self, shape: tuple[int, int], population: int, budget: int, seed: int) -> Designer:
-        """The designer of one trial, seeded from the run's seed as every trial is."""
-        harness = {
-            "shape": tuple(shape),
-            "population": population,
-            "budget": budget,
-            "seed": seeding.designer_seed(seed),
-        }
-        designer = _build("designer", self.label, self.factory, **harness)
-        if not isinstance(designer, Designer):
-            raise PluginError(
-                f"designer {self.label!r}: factory returned {type(designer).__name__}, not a gdabench.Designer"
-            )
-        return designer
-
-
-@dataclass(frozen=True)
-class EnvRecipe:
-    """An environment as resolved, with what the harness reads from it once."""
-
-    label: str
-    name: str
-    factory: Factory  # includes the body shape
-    version: str | None
-    optimum: float | None
-    deterministic: bool
-    package: tuple[str, str]
-
-
-@dataclass(frozen=True)
-class TrialSpec:
-    """One designer on one environment with one seed: everything a worker needs to run it."""
-
-    index: int  # position in the experiment's order (seed, environment, designer)
-    name: str  # file-system name of its checkpoint, pending rows and artifacts
-    designer: DesignerRecipe
-    env: EnvRecipe
-    controller: Factory | None
-    seed: int
-    repetition: int
-    shape: tuple[int, int]
-    population: int
-    budget: int
-    stop_at_optimum: bool
-    title: str  # how progress lines and messages name the trial
-    constants: Mapping[str, Any] = field(default_factory=dict)  # result columns every row of the trial shares
-    #: what an evaluation cache entry depends on besides body and seed; None: not cacheable
-    cache_context: Mapping[str, Any] | None = None
-
-    @property
-    def key(self) -> tuple[str, str, int]:
-        """(environment, designer, seed) labels: how the results table identifies the trial."""
-        return (self.env.label, self.designer.label, self.seed)
-
 
 
 class Plan:
@@ -160,7 +78,7 @@ class Plan:
                 "controller", exp.controller.label, item.spec.load(), {**item.spec.defaults, **exp.controller.params}
             )
             controller = Factory.of(item.spec.factory, params)
-            obj = built[controller.key()] = _build("controller", exp.controller.label, controller)
+            obj = built[controller.key()] = build_plugin("controller", exp.controller.label, controller)
             if not isinstance(obj, Controller):
                 raise PluginError(
                     f"controller {exp.controller.label!r}: factory returned {type(obj).__name__}, not a "
@@ -197,7 +115,7 @@ class Plan:
         if exp.controller is not None and not needs_controller:
             raise ConfigError(f"environment {choice.name!r} scores bodies directly and takes no controller")
         factory = Factory.of(spec.factory, {"shape": tuple(exp.shape), **params})
-        env = built[factory.key()] = _build("environment", choice.label, factory)
+        env = built[factory.key()] = build_plugin("environment", choice.label, factory)
         if not isinstance(env, Environment):
             raise PluginError(
                 f"environment {choice.label!r}: factory returned {type(env).__name__}, not a gdabench.Environment"

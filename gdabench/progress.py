@@ -21,8 +21,8 @@ from rich.progress import (
 from .config import Experiment
 from .events import RunListener
 from .execution.trials import BodiesDone
-from .plan import TrialSpec
 from .trial import GenerationResult
+from .trial_spec import TrialSpec
 
 
 class ProgressDisplay(RunListener):

@@ -17,11 +17,11 @@ import pandas as pd
 from .body import Body, as_body
 from .config import Experiment
 from .errors import ConfigError, RunDirectoryError
-from .execution.evaluation import OK
 from .plan import Plan
 from .plugins import registry
 from .report.animation import animate
 from .results import RunDirectory, atomic_write_bytes
+from .statuses import OK
 
 
 @dataclass(frozen=True)

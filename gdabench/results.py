@@ -44,6 +44,7 @@ from filelock import FileLock, Timeout
 
 from . import faults
 from .errors import ConfigError, GdabenchError, RunDirectoryError, RunFailure, RunLockedError
+from .statuses import STATUSES
 
 FORMAT = "gdabench-run/1"
 RUN_JSON = "run.json"
@@ -77,7 +78,7 @@ COLUMNS: dict[str, str] = {
     "body": "body in text form (rows joined by '/'), round-trips through Body.from_text",
     "body_hash": "stable hash of the body",
     "reward": "reward (NaN for invalid bodies and failed evaluations)",
-    "status": "ok | invalid | duplicate | error | timeout",
+    "status": " | ".join(STATUSES),
     "message": "why a body was invalid or its evaluation failed",
     "cached": "reward taken from the evaluation cache (--cache) instead of computed in this run",
     "n_evals": "evaluations used so far in this trial, this row included",

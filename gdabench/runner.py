@@ -31,11 +31,12 @@ from .execution.options import Execution, cpu_count
 from .execution.outcomes import RunOutcomes
 from .execution.trials import BodiesDone, InProcess, LocalProcesses, TrialHost, TrialWorkers
 from .experiment_build import default_out_dir, stored_experiment, with_added_seeds
-from .plan import Plan, TrialSpec
+from .plan import Plan
 from .plugins import Registry, registry
 from .report.summary import failure_counts, nothing_measured, summarize
 from .results import SUMMARY, Checkpoint, RunDirectory, no_space, platform_info, utc_now, versions, write_error
 from .trial import GenerationResult
+from .trial_spec import TrialSpec
 
 
 def _new_meta(plan: Plan, reg: Registry, command: Sequence[str] | None, execution: dict[str, Any]) -> dict[str, Any]:

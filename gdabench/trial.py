@@ -28,9 +28,10 @@ from .body import Body, as_body
 from .designer import Designer
 from .environment import Environment
 from .errors import DesignerError, GdabenchError, one_line
-from .execution.evaluation import COUNTED, DUPLICATE, INVALID, OK, EvalTask, Evaluate
-from .plan import TrialSpec
+from .execution.tasks import EvalTask, Evaluate
 from .results import COLUMNS, Checkpoint, utc_now
+from .statuses import COUNTED, DUPLICATE, INVALID, OK
+from .trial_spec import TrialSpec
 
 #: a designer that proposes nothing new for this many generations in a row is stopped
 MAX_STALE_GENERATIONS = 20

@@ -15,7 +15,7 @@ from typer.testing import CliRunner
 
 from gdabench.cli import app
 from gdabench.errors import ConfigError
-from gdabench.execution.evaluation import COUNTED
+from gdabench.statuses import COUNTED
 from gdabench.report.export import _dat_block, export_run
 from gdabench.report.runtimes import run_traces
 from stat_tables import small_run, table

@@ -8,9 +8,11 @@
 * :mod:`.cache`: an opt-in cache of rewards shared across runs.
 """
 
-from .evaluation import COUNTED, DUPLICATE, ERROR, INVALID, OK, TIMEOUT, EvalOutcome, EvalTask, evaluate
+from ..statuses import COUNTED, DUPLICATE, ERROR, INVALID, OK, TIMEOUT
+from .evaluation import evaluate
 from .executor import Executor, SerialExecutor
 from .options import EXECUTORS, Execution, cpu_count, make_executor
+from .tasks import EvalOutcome, EvalTask
 
 __all__ = [
     "COUNTED", "DUPLICATE", "ERROR", "EXECUTORS", "INVALID", "OK", "TIMEOUT",

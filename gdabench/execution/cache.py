@@ -27,7 +27,8 @@ from typing import Any, Mapping
 from ..errors import ConfigError
 from ..results import atomic_write_bytes, utc_now
 from ..specs import Factory
-from .evaluation import OK, EvalOutcome, EvalTask
+from ..statuses import OK
+from .tasks import EvalOutcome, EvalTask
 
 FORMAT = "gdabench-cache/1"
 

@@ -15,43 +15,13 @@ from __future__ import annotations
 import contextlib
 import math
 import time
-from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Callable, Iterator, Mapping, Sequence
 
-from ..body import Body
 from ..environment import Environment, Evaluation
 from ..errors import one_line
 from ..specs import Factory
-
-OK, INVALID, DUPLICATE, ERROR, TIMEOUT = "ok", "invalid", "duplicate", "error", "timeout"
-#: statuses that used an evaluation (and so count against the budget)
-COUNTED = (OK, ERROR, TIMEOUT)
-
-
-@dataclass(frozen=True)
-class EvalTask:
-    body: Body
-    seed: int
-    env: Factory
-    controller: Factory | None = None
-    workdir: Path | None = None
-
-
-@dataclass(frozen=True)
-class EvalOutcome:
-    reward: float
-    status: str
-    message: str = ""
-    seconds: float = 0.0
-    info: Mapping[str, Any] = field(default_factory=dict)
-    #: the reward was taken from the evaluation cache instead of being computed
-    cached: bool = False
-
-
-#: what evaluates a generation's tasks (an executor's ``map``, possibly behind a cache): outcome ``i`` is task ``i``'s
-Evaluate = Callable[[Sequence[EvalTask]], list[EvalOutcome]]
-
+from ..statuses import ERROR, OK
+from .tasks import EvalOutcome, EvalTask
 
 _built: dict[str, Any] = {}
 _progress: list[Callable[[str], None]] = []

@@ -16,7 +16,8 @@ import abc
 import math
 from typing import Any, Mapping, Sequence
 
-from .evaluation import EvalOutcome, EvalTask, evaluate_batch
+from .evaluation import evaluate_batch
+from .tasks import EvalOutcome, EvalTask
 
 
 class Executor(abc.ABC):

@@ -21,8 +21,9 @@ from pathlib import Path
 
 from .. import faults
 from ..results import atomic_write_bytes
+from ..statuses import OK
 from .cache import plain
-from .evaluation import OK, EvalOutcome, EvalTask
+from .tasks import EvalOutcome, EvalTask
 
 OUTCOMES = "outcomes"
 

@@ -33,9 +33,11 @@ from typing import Any, Sequence
 
 from ..errors import GdabenchError, one_line
 from ..specs import Factory
+from ..statuses import ERROR, TIMEOUT
 from . import spawning
-from .evaluation import ERROR, TIMEOUT, EvalOutcome, EvalTask, evaluate_batch, prepare
+from .evaluation import evaluate_batch, prepare
 from .executor import Executor, batches
+from .tasks import EvalOutcome, EvalTask
 
 #: seconds the pool waits for its first worker to import gdabench and build the environment
 #: (workers that start later, e.g. queued on a busy Ray cluster, may take as long as they need)

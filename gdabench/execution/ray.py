@@ -20,9 +20,11 @@ from typing import Any, Sequence
 
 from ..errors import ConfigError, one_line
 from ..specs import Factory
-from .evaluation import ERROR, EvalOutcome, EvalTask, evaluate_batch, prepare
+from ..statuses import ERROR
+from .evaluation import evaluate_batch, prepare
 from .executor import Executor
 from .pool import DIED, READY, RESULT, Backend, Slot, WorkerGone, WorkerPool
+from .tasks import EvalOutcome, EvalTask
 
 
 def import_ray() -> Any:

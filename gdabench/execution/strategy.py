@@ -15,7 +15,7 @@ from __future__ import annotations
 import abc
 from typing import Sequence
 
-from .evaluation import EvalOutcome, EvalTask, Evaluate
+from .tasks import EvalOutcome, EvalTask, Evaluate
 
 
 class EvaluationStrategy(abc.ABC):

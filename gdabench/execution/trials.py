@@ -24,16 +24,17 @@ from typing import Any, Callable, Mapping, Sequence
 import pandas as pd
 
 from ..errors import GdabenchError, one_line
-from ..plan import TrialSpec
 from ..results import Checkpoint, RunDirectory
 from ..trial import GenerationResult, Trial
+from ..trial_spec import TrialSpec
 from . import cores, spawning
 from .cache import EvaluationCache
-from .evaluation import EvalOutcome, EvalTask, Evaluate, instance, progress_to
+from .evaluation import instance, progress_to
 from .executor import Executor
 from .options import Execution, make_executor
 from .outcomes import RunOutcomes
 from .pool import death_message, exit_when_orphaned
+from .tasks import EvalOutcome, EvalTask, Evaluate
 
 
 @dataclass(frozen=True)

@@ -29,11 +29,11 @@ import pandas as pd
 from ..body import Body
 from ..config import Experiment
 from ..errors import ConfigError, GdabenchError, RunDirectoryError
-from ..execution.evaluation import COUNTED, OK
 from ..names import file_name
 from ..plan import Plan
 from ..plugins import Registry, registry
 from ..results import RunDirectory
+from ..statuses import COUNTED, OK
 from . import plots
 from .animation import animate
 from .bodies import bodies_figure

@@ -28,7 +28,7 @@ import pandas as pd
 
 from ..body import CATEGORIES, NEAR_COPY, categorize, hamming
 from ..errors import RunDirectoryError
-from ..execution.evaluation import OK
+from ..statuses import OK
 from .stats import RUN_KEYS
 
 #: survivors per generation in the thesis's GDA and simple-environment GA

@@ -34,9 +34,9 @@ import pandas as pd
 
 from ..body import Body
 from ..errors import ConfigError
-from ..execution.evaluation import OK
 from ..names import file_name
 from ..results import RunDirectory, atomic_write_bytes
+from ..statuses import OK
 from .runtimes import RunTrace, run_traces, with_run_id
 from .staging import staged_folder, writing
 

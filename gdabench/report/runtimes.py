@@ -31,7 +31,7 @@ import pandas as pd
 from numpy.typing import ArrayLike
 
 from ..errors import ConfigError
-from ..execution.evaluation import COUNTED
+from ..statuses import COUNTED
 from .stats import (
     BOOTSTRAP_SEED,
     CONFIDENCE,

@@ -23,7 +23,7 @@ from typing import Callable, Sequence
 import numpy as np
 import pandas as pd
 
-from ..execution.evaluation import COUNTED, OK
+from ..statuses import COUNTED, OK
 
 CONFIDENCE = 0.95
 RESAMPLES = 2000

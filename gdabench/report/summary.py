@@ -16,7 +16,7 @@ from typing import Any, Mapping, Union
 
 import pandas as pd
 
-from ..execution.evaluation import COUNTED, OK
+from ..statuses import COUNTED, OK
 from .stats import (
     CONFIDENCE,
     RESAMPLES,
