@@ -362,6 +362,7 @@ def test_cache_is_safe_with_concurrent_writers(tmp_path):
         (["--ray-address", "auto"], "--ray-address needs --executor ray"),
         (["--jobs", "0"], "jobs must be a positive integer, got 0"),
         (["--workers", "0"], "workers must be a positive integer, got 0"),
+        (["--batch", "0"], "batch must be a positive integer, got 0"),
     ],
 )
 def test_bad_execution_options_are_one_line(tmp_path, options, fragment):
