@@ -66,10 +66,10 @@ def make_tasks(env: Factory, ctrl: Factory | None, n: int, shape, seed: int) -> 
     return tasks
 
 
-def make_executor(kind: str, workers: int, prebuilt: dict | None, warm: list[Factory]) -> Executor:
+def make_executor(kind: str, workers: int, warm: list[Factory]) -> Executor:
     """The evaluation executor ``kind`` (serial, process or ray) with ``workers`` workers."""
     if kind == "serial":
-        return SerialExecutor(prebuilt)
+        return SerialExecutor()
     if kind == "process":
         return ProcessExecutor(workers, warm=warm)
     from gdabench.execution.ray import RayExecutor
@@ -79,9 +79,8 @@ def make_executor(kind: str, workers: int, prebuilt: dict | None, warm: list[Fac
 
 def rate(kind: str, workers: int, tasks: list[EvalTask], population: int, repeats: int, warm: list[Factory]) -> tuple[float, float, float]:
     """Evaluations per second, busy share and CPU share (medians over ``repeats`` passes through ``tasks``)."""
-    prebuilt = {r.key(): r.build() for r in warm} if kind == "serial" else None
     rates, busy, cpu = [], [], []
-    with make_executor(kind, workers, prebuilt, warm) as executor:
+    with make_executor(kind, workers, warm) as executor:
         executor.map(tasks[:workers])  # start the workers
         for _ in range(repeats):
             start = time.perf_counter()

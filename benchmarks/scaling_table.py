@@ -79,7 +79,7 @@ def optima(run: RunDirectory) -> dict[str, tuple[float | None, str]]:
     if missing:
         plan = Plan.resolve(Experiment.from_json(run.meta["config"]), designers=False)
         for recipe in plan.envs:
-            bounds[recipe.label] = getattr(plan.built[recipe.factory.key()], "upper_bound", None)
+            bounds[recipe.label] = getattr(plan.scorers(recipe.label)[0], "upper_bound", None)
     for label, value in known.items():  # type: ignore[union-attr]
         if value is not None:
             out[label] = (float(value), "optimum")

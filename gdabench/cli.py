@@ -434,7 +434,7 @@ def evaluate(
         if reason is not None:
             raise ConfigError(f"body {parsed.text} is invalid for {env!r}: {reason}")
         task = EvalTask(parsed, seeding.evaluation_seed(seed, parsed.hash), plan.envs[0].factory, plan.controller)
-        outcome = evaluate_task(task, plan.built)
+        outcome = evaluate_task(task)
         if outcome.status != OK:
             raise _fail(f"evaluation failed: {outcome.message}", 1)
         console.print(f"{outcome.reward:.6g}")

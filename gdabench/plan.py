@@ -16,6 +16,7 @@ from .config import Experiment, PluginChoice
 from .environment import Controller, Environment
 from .errors import ConfigError, PluginError
 from .execution.cache import recipe_identity
+from .execution.evaluation import adopt, instance
 from .execution.spawning import from_script
 from .names import file_name
 from .params import check_params
@@ -43,7 +44,6 @@ class Plan:
         controller: Factory | None,
         controller_package: tuple[str, str] | None,
         designers: list[DesignerRecipe],
-        built: dict[str, Any],
     ):
         self.experiment = experiment
         self.envs = envs
@@ -52,8 +52,6 @@ class Plan:
         #: why an environment's evaluations cannot be cached, by label
         self.uncacheable: dict[str, str] = {}
         self._contexts = {env.label: self._cache_context(env, controller_package) for env in envs}
-        #: environment and controller objects built while resolving, by recipe key (reused in-process)
-        self.built = built
         self.trials = self._trials()
 
     @classmethod
@@ -66,10 +64,7 @@ class Plan:
         reg = reg or registry()
         experiment.check()
         exp = experiment
-        built: dict[str, Any] = {}
-        envs = [
-            cls._env(reg, choice, exp, built) for choice in exp.envs
-        ]  # first: they say whether a controller belongs
+        envs = [cls._env(reg, choice, exp) for choice in exp.envs]  # first: they say whether a controller belongs
         controller, controller_package = None, None
         if exp.controller is not None:
             item = reg.get("controller", exp.controller.name)
@@ -78,7 +73,8 @@ class Plan:
                 "controller", exp.controller.label, item.spec.load(), {**item.spec.defaults, **exp.controller.params}
             )
             controller = Factory.of(item.spec.factory, params)
-            obj = built[controller.key()] = build_plugin("controller", exp.controller.label, controller)
+            # built here to check it, and kept as this process's object for the recipe (reused by trials here)
+            obj = adopt(controller, build_plugin("controller", exp.controller.label, controller))
             if not isinstance(obj, Controller):
                 raise PluginError(
                     f"controller {exp.controller.label!r}: factory returned {type(obj).__name__}, not a "
@@ -99,10 +95,10 @@ class Plan:
                 exp.shape, exp.population, exp.budget, exp.seeds[0]
             )  # constructor checks, before any run starts
             recipes.append(recipe)
-        return cls(exp, envs, controller, controller_package, recipes, built)
+        return cls(exp, envs, controller, controller_package, recipes)
 
     @staticmethod
-    def _env(reg: Registry, choice: PluginChoice, exp: Experiment, built: dict[str, Any]) -> EnvRecipe:
+    def _env(reg: Registry, choice: PluginChoice, exp: Experiment) -> EnvRecipe:
         item = reg.get("environment", choice.name)
         spec = item.spec
         params = check_params(
@@ -115,7 +111,7 @@ class Plan:
         if exp.controller is not None and not needs_controller:
             raise ConfigError(f"environment {choice.name!r} scores bodies directly and takes no controller")
         factory = Factory.of(spec.factory, {"shape": tuple(exp.shape), **params})
-        env = built[factory.key()] = build_plugin("environment", choice.label, factory)
+        env = adopt(factory, build_plugin("environment", choice.label, factory))
         if not isinstance(env, Environment):
             raise PluginError(
                 f"environment {choice.label!r}: factory returned {type(env).__name__}, not a gdabench.Environment"
@@ -224,5 +220,5 @@ class Plan:
                 f"no environment {env_label!r} in this experiment; environments: "
                 f"{', '.join(e.label for e in self.envs)}"
             )
-        controller = self.built[self.controller.key()] if self.controller is not None else None
-        return self.built[env.factory.key()], controller
+        controller = instance(self.controller) if self.controller is not None else None
+        return instance(env.factory), controller

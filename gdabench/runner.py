@@ -235,7 +235,7 @@ def _trial_workers(plan: Plan, run: RunDirectory, execution: Execution, trials: 
         return
     if spare is not None:  # the trials run here, in this process
         cores.install(spare.count, multiprocessing.Value("i", 0, lock=False))
-    host = TrialHost(run_id, run.path, execution, plan.built)
+    host = TrialHost(run_id, run.path, execution)
     host.progress = lambda bodies: listener.bodies(plan.trials[bodies.trial], bodies)
     try:
         yield InProcess(host), 1, spare

@@ -15,7 +15,7 @@ from __future__ import annotations
 import contextlib
 import math
 import time
-from typing import Any, Callable, Iterator, Mapping, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 from ..environment import Environment, Evaluation
 from ..errors import one_line
@@ -45,14 +45,19 @@ def progress_to(callback: Callable[[str], None]) -> Iterator[None]:
         _progress.pop()
 
 
-def instance(recipe: Factory, prebuilt: Mapping[str, Any] | None = None) -> Any:
-    """The object ``recipe`` builds, built once per process (or taken from ``prebuilt``)."""
+def instance(recipe: Factory) -> Any:
+    """The object ``recipe`` builds, built once per process: the one cache of built environments and
+    controllers (the plan puts in the ones it built to check them, :func:`adopt`)."""
     key = recipe.key()
-    if prebuilt and key in prebuilt:
-        return prebuilt[key]
     if key not in _built:
         _built[key] = recipe.build()
     return _built[key]
+
+
+def adopt(recipe: Factory, built: Any) -> Any:
+    """Make ``built`` this process's object for ``recipe`` (a newer plan's replaces an older one's)."""
+    _built[recipe.key()] = built
+    return built
 
 
 def prepare(recipes: Sequence[Factory]) -> None:
@@ -69,7 +74,7 @@ def prepare(recipes: Sequence[Factory]) -> None:
             pass
 
 
-def evaluate_batch(tasks: Sequence[EvalTask], prebuilt: Mapping[str, Any] | None = None) -> list[EvalOutcome]:
+def evaluate_batch(tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
     """Score ``tasks`` (bodies of one environment and controller) in one call; never raises for a failure
     of the environment or controller.  A body's ``seconds`` is its share of the call's time."""
     start = time.perf_counter()
@@ -77,8 +82,8 @@ def evaluate_batch(tasks: Sequence[EvalTask], prebuilt: Mapping[str, Any] | None
     if any(task.env != first.env or task.controller != first.controller for task in tasks):
         raise ValueError("a batch holds bodies of one environment and controller")
     try:
-        env: Environment = instance(first.env, prebuilt)
-        controller = instance(first.controller, prebuilt) if first.controller else None
+        env: Environment = instance(first.env)
+        controller = instance(first.controller) if first.controller else None
         results = env.evaluate_bodies(
             [task.body for task in tasks],
             seeds=[task.seed for task in tasks],
@@ -94,9 +99,9 @@ def evaluate_batch(tasks: Sequence[EvalTask], prebuilt: Mapping[str, Any] | None
     return [_outcome(result, seconds) for result in results]
 
 
-def evaluate(task: EvalTask, prebuilt: Mapping[str, Any] | None = None) -> EvalOutcome:
+def evaluate(task: EvalTask) -> EvalOutcome:
     """Score one body (the batch of one)."""
-    return evaluate_batch([task], prebuilt)[0]
+    return evaluate_batch([task])[0]
 
 
 def _outcome(result: float | Evaluation | BaseException, seconds: float) -> EvalOutcome:

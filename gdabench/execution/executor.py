@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import abc
 import math
-from typing import Any, Mapping, Sequence
+from typing import Sequence
 
 from .evaluation import evaluate_batch
 from .tasks import EvalOutcome, EvalTask
@@ -44,13 +44,10 @@ class SerialExecutor(Executor):
     hang hangs the trial and a crash ends it; ask for a timeout to evaluate in a worker process.
     """
 
-    def __init__(self, prebuilt: Mapping[str, Any] | None = None):
-        self.prebuilt = dict(prebuilt or {})
-
     def map(self, tasks: Sequence[EvalTask], batch: int = 1) -> list[EvalOutcome]:
         outcomes: list[EvalOutcome | None] = [None] * len(tasks)
         for part in batches(tasks, 1, batch):
-            for i, outcome in zip(part, evaluate_batch([tasks[i] for i in part], self.prebuilt)):
+            for i, outcome in zip(part, evaluate_batch([tasks[i] for i in part])):
                 outcomes[i] = outcome
         return outcomes  # type: ignore[return-value]
 

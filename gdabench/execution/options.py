@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import asdict, dataclass
-from typing import Any, Mapping, Sequence
+from typing import Any, Sequence
 
 from ..errors import ConfigError
 from ..specs import Factory
@@ -72,17 +72,15 @@ class Execution:
         return asdict(self)
 
 
-def make_executor(
-    execution: Execution, prebuilt: Mapping[str, Any] | None = None, warm: Sequence[Factory] = ()
-) -> Executor:
+def make_executor(execution: Execution, warm: Sequence[Factory] = ()) -> Executor:
     """The evaluation executor of a trial's process.
 
-    ``prebuilt`` maps recipe keys to environments and controllers already built in this
-    process (reused when evaluating here); ``warm`` are the recipes worker processes build
-    before their first body, so that start-up is not charged to an evaluation's time.
+    Evaluating here reuses this process's built environment and controller
+    (:func:`.evaluation.instance`); ``warm`` are the recipes worker processes build before their first
+    body, so that start-up is not charged to an evaluation's time.
     """
     if execution.workers == 1 and execution.timeout is None:
-        return SerialExecutor(prebuilt)
+        return SerialExecutor()
     if execution.executor == "ray":
         from .ray import RayExecutor
 

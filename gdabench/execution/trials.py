@@ -19,7 +19,7 @@ import threading
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Callable, Sequence
 
 import pandas as pd
 
@@ -56,9 +56,8 @@ class TrialHost:
     evaluated at once) of a generation.
     """
 
-    def __init__(self, run_id: str, run_path: Path, execution: Execution, prebuilt: Mapping[str, Any] | None = None):
+    def __init__(self, run_id: str, run_path: Path, execution: Execution):
         self.run_id, self.run_path, self.execution = run_id, Path(run_path), execution
-        self.prebuilt = dict(prebuilt or {})
         self.trial: Trial | None = None
         self.progress: Callable[[BodiesDone], None] | None = None
         self._executor: Executor | None = None
@@ -68,7 +67,7 @@ class TrialHost:
     def open(self, spec: TrialSpec, checkpoint: Checkpoint | None, done: pd.DataFrame | None) -> None:
         """Start ``spec``'s trial, or continue it from ``checkpoint`` (``done``: its rows so far)."""
         cores.release()
-        env = instance(spec.env.factory, self.prebuilt)
+        env = instance(spec.env.factory)
         workdir = RunDirectory(self.run_path).artifacts(spec.name)
         if checkpoint is None:
             self.trial = Trial(spec, self.run_id, env, workdir)
@@ -77,8 +76,8 @@ class TrialHost:
         self.trial.designer.lend_cores(cores.borrow)
         if self._executor is None:
             warm = [r for r in (spec.env.factory, spec.controller) if r is not None]
-            self._executor = make_executor(self.execution, self.prebuilt, warm)
-        controller = instance(spec.controller, self.prebuilt) if spec.controller else None
+            self._executor = make_executor(self.execution, warm)
+        controller = instance(spec.controller) if spec.controller else None
         batch = self.execution.batch or (controller or env).bodies_at_once
         evaluate: Evaluate = functools.partial(self._executor.map, batch=batch)
         if self.execution.cache is not None and spec.cache_context is not None:
