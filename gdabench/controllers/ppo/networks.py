@@ -196,11 +196,12 @@ class Stacked:
         does not depend on the padding), or plays its mean where that is None.
         """
         mean = self.mean(obs)
-        noise = torch.zeros_like(mean)
+        noise = torch.zeros(mean.shape, dtype=mean.dtype)  # drawn on the CPU: the same streams on any device
         for b, generator in enumerate(generators):
             if generator is not None:
                 size = (mean.shape[1], self.act_sizes[b])
-                noise[b, :, : self.act_sizes[b]] = torch.randn(size, generator=generator, device=mean.device)
+                noise[b, :, : self.act_sizes[b]] = torch.randn(size, generator=generator)
+        noise = noise.to(mean.device)
         actions = torch.addcmul(mean, self.log_std.exp().unsqueeze(1), noise)
         log_prob = -((0.5 * noise.square() + self.log_std.unsqueeze(1) + HALF_LOG_2PI) * self.act_mask.unsqueeze(1))
         return actions, log_prob.sum(-1)

@@ -149,7 +149,7 @@ class _Best:
         self.params = nets.snapshot()
 
     def add(self, timesteps: int, scores: list[list[float]]) -> None:
-        improved = torch.zeros(self.nets.n_bodies, dtype=torch.bool)
+        improved = torch.zeros(self.nets.n_bodies, dtype=torch.bool, device=self.nets.log_std.device)
         for b, body_scores in enumerate(scores):
             history = self.evaluations[b]
             history.append(Evaluated(timesteps, body_scores))
@@ -234,7 +234,7 @@ class _Training:
         self.steps = 0
         self.losses: list[list[list[float]]] = []
         self.unstable = np.zeros(nets.n_bodies, dtype=np.int64)
-        self.diverged = torch.zeros(nets.n_bodies, dtype=torch.bool)
+        self.diverged = torch.zeros(nets.n_bodies, dtype=torch.bool, device=nets.log_std.device)
 
     def evaluate(self, make_batch: Callable[[int], BodyBatch]) -> None:
         index = len(self.best.evaluations[0])

@@ -220,6 +220,14 @@ def observe(tables: BodyTables, state: State) -> np.ndarray:
     return out
 
 
+def kernel_args(tables: BodyTables, terrain: Terrain) -> tuple:
+    """The tables' and terrain's arrays in the order the kernels take them (after the state)."""
+    return (tables.n_points, tables.n_edges, tables.edges, tables.rest0, tables.spring_k, tables.edge_surface,
+            tables.n_act, tables.act_edges, tables.n_surface, tables.surface_points, tables.surface_edges,
+            tables.n_pairs, tables.pairs, tables.n_rigid, tables.rigid_edges, tables.point_edges, tables.point_start,
+            tables.point_n_a, *terrain.arrays())
+
+
 def step(tables: BodyTables, terrain: Terrain, state: State, actions: np.ndarray,
          active: np.ndarray | None = None) -> tuple[State, StepOutput]:
     """One env step of every environment: actions ``(N, A)`` (clipped to [0.6, 1.6]), padded per body.
@@ -227,7 +235,7 @@ def step(tables: BodyTables, terrain: Terrain, state: State, actions: np.ndarray
     Environments with ``active[i]`` False keep their state (their outputs are zeros).
     """
     n = len(state.body)
-    acts = np.clip(np.asarray(actions, dtype=np.float64).reshape(n, -1), 0.6, 1.6)
+    acts = np.asarray(actions, dtype=np.float64).reshape(n, -1)
     if acts.shape[1] < tables.max_actuators:
         acts = np.pad(acts, ((0, 0), (0, tables.max_actuators - acts.shape[1])), constant_values=1.0)
     new = replace(state, pos=state.pos.copy(), vel=state.vel.copy(), vtrue=state.vtrue.copy())
@@ -236,12 +244,8 @@ def step(tables: BodyTables, terrain: Terrain, state: State, actions: np.ndarray
     dx = np.zeros(n)
     com = np.zeros(n)
     unstable = np.zeros(n, dtype=np.bool_)
+    work = kernels.workspace(n, tables.max_points, tables.edges.shape[1], tables.surface_points.shape[1])
     kernel: Any = kernels.step_parallel if n >= PARALLEL_FROM and numba.get_num_threads() > 1 else kernels.step_serial
-    kernel(
-        active, state.body, np.ascontiguousarray(acts), new.pos, new.vel, new.vtrue, tables.n_points, tables.n_edges,
-        tables.edges, tables.rest0, tables.spring_k, tables.edge_surface, tables.n_act, tables.act_edges,
-        tables.n_surface, tables.surface_points, tables.surface_edges, tables.n_pairs, tables.pairs, tables.n_rigid,
-        tables.rigid_edges, tables.point_edges, tables.point_start, tables.point_n_a, *terrain.arrays(), obs, dx, com,
-        unstable,
-    )
+    kernel(active, state.body, np.ascontiguousarray(acts), new.pos, new.vel, new.vtrue, *kernel_args(tables, terrain),
+           obs, dx, com, unstable, *work)
     return new, StepOutput(obs=obs, dx=dx, com=com, unstable=unstable)

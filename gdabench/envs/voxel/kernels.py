@@ -420,79 +420,109 @@ def _observe(pos, vel, n, out):
 
 
 @_jit
-def _step_env(i, body, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, n_act, act_edges,
-              n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges, point_edges, point_start,
-              point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero, obs, dx, com, unstable):
-    """One env step (30 updates) of environment ``i`` (body ``body[i]``), in place.
+def step_env(b, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, n_act, act_edges,
+             n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges, point_edges, point_start,
+             point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero, obs, wp, we, ws, wb):
+    """One env step (30 updates) of one environment of body ``b``, in place; returns
+    ``(unstable, com, dx)``: whether it became unstable, its centre of mass's x after the step and
+    that x's gain.
 
-    An environment that becomes unstable is put back to its state before the step, as Evolution
-    Gym's snapshots are, and flagged in ``unstable``.  ``obs``, ``com`` (the centre of mass's x) and
-    ``dx`` (its gain) are written.
+    ``actions``, ``pos``/``vel``/``vt`` (points x 2) and ``obs`` are the environment's own rows;
+    actions are clipped to [0.6, 1.6] here.  An environment that becomes unstable is put back to its
+    state before the step, as Evolution Gym's snapshots are.  Nothing is allocated: every temporary
+    lives in ``wp``/``we``/``ws``/``wb`` (one environment's share of :func:`workspace`), so the same
+    function compiles for a CUDA thread, whose caller can keep them in the thread's local memory.
     """
-    P = pos.shape[1]
-    E = edges.shape[1]
-    S = surface_points.shape[1]
     terrain = (tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero)
-    b = body[i]
+    p0 = wp[8]
+    v0 = wp[9]
+    t0 = wp[10]
+    goal = ws[1]
+    count = ws[2]
     n = n_points[b]
     ne = n_edges[b]
     ea = edges[b]
     r0 = rest0[b]
-    goal = r0.copy()
-    count = np.zeros(E, dtype=np.int64)
+    for e in range(ne):
+        goal[e] = r0[e]
+        count[e] = 0.0
     for m in range(n_act[b]):
-        for e in act_edges[b, m]:
-            goal[e] = 0.0
+        for k in range(2):
+            goal[act_edges[b, m, k]] = 0.0
     for m in range(n_act[b]):
-        for e in act_edges[b, m]:
-            goal[e] += actions[i, m]
-            count[e] += 1
+        a = actions[m]
+        if a < 0.6:
+            a = 0.6
+        elif a > 1.6:
+            a = 1.6
+        for k in range(2):
+            e = act_edges[b, m, k]
+            goal[e] += a
+            count[e] += 1.0
     for e in range(ne):
         if count[e] > 0:
             goal[e] *= r0[e] / count[e]
-    scratch = (np.zeros((P, 2)), np.empty((S, 4)), np.empty(E), np.empty((E, 2)), np.empty((P, 2)),
-               np.empty((P, 2)), np.empty((P, 2)), np.empty((P, 2)), np.empty((P, 2)), np.empty((P, 2)),
-               np.empty((P, 2)), np.empty((E, 2)))
-    p0 = pos[i].copy()
-    v0 = vel[i].copy()
-    t0 = vt[i].copy()
-    before = _com(pos[i], n)
-    unstable[i] = False
+    scratch = (wp[0], wb, ws[0], we[0], wp[1], wp[2], wp[3], wp[4], wp[5], wp[6], wp[7], we[1])
+    for m in range(n):
+        for c in range(2):
+            p0[m, c] = pos[m, c]
+            v0[m, c] = vel[m, c]
+            t0[m, c] = vt[m, c]
+    before = _com(pos, n)
+    unstable = False
     for _ in range(SUBSTEPS):
         c = _substep(n, ne, ea, r0, spring_k[b], edge_surface[b], goal, n_surface[b], surface_points[b],
                      surface_edges[b], n_pairs[b], pairs[b], n_rigid[b], rigid_edges[b], point_edges[b],
-                     point_start[b], point_n_a[b], terrain, pos[i], vel[i], vt[i], scratch)
+                     point_start[b], point_n_a[b], terrain, pos, vel, vt, scratch)
         if c > n_surface[b]:
-            unstable[i] = True
-            pos[i] = p0
-            vel[i] = v0
-            vt[i] = t0
+            unstable = True
+            for m in range(n):
+                for d in range(2):
+                    pos[m, d] = p0[m, d]
+                    vel[m, d] = v0[m, d]
+                    vt[m, d] = t0[m, d]
             break
-    _observe(pos[i], vel[i], n, obs[i])
-    com[i] = _com(pos[i], n)
-    dx[i] = com[i] - before
+    _observe(pos, vel, n, obs)
+    com = _com(pos, n)
+    return unstable, com, com - before
+
+
+#: per environment, the points' temporaries (collision forces, RK4 stages, the state before the step),
+#: the edges' (spring forces, clamp corrections) and the springs' (rest lengths, goals, actuator counts)
+POINT_TEMPS, EDGE_TEMPS, SPRING_TEMPS = 11, 2, 3
+
+
+def workspace(n: int, points: int, edges: int, surface: int) -> tuple[np.ndarray, ...]:
+    """Temporaries of :func:`step_env` for ``n`` environments on the CPU."""
+    return (np.empty((n, POINT_TEMPS, points, 2)), np.empty((n, EDGE_TEMPS, edges, 2)),
+            np.empty((n, SPRING_TEMPS, edges)), np.empty((n, surface, 4)))
+
+
+@_jit
+def _step_row(i, active, body, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, n_act,
+              act_edges, n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges, point_edges,
+              point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero, obs, dx, com,
+              unstable, work_points, work_edges, work_springs, work_boxes):
+    if active[i]:
+        unstable[i], com[i], dx[i] = step_env(
+            body[i], actions[i], pos[i], vel[i], vt[i], n_points, n_edges, edges, rest0, spring_k, edge_surface,
+            n_act, act_edges, n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges,
+            point_edges, point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero,
+            obs[i], work_points[i], work_edges[i], work_springs[i], work_boxes[i])
 
 
 @numba.njit(cache=True, error_model="numpy", boundscheck=False, parallel=True)
-def step_parallel(active, body, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, n_act,
-                  act_edges, n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges,
-                  point_edges, point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero,
-                  obs, dx, com, unstable):
-    """:func:`_step_env` for every active environment, one thread per environment."""
+def step_parallel(active, *args):
+    """:func:`step_env` for every active environment, one thread per environment."""
     for i in numba.prange(active.shape[0]):
-        if active[i]:
-            _step_env(i, body, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, n_act,
-                      act_edges, n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges,
-                      point_edges, point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel,
-                      tzero, obs, dx, com, unstable)
+        _step_row(i, active, *args)
 
 
 @_jit
 def step_serial(active, *args):
-    """:func:`_step_env` for every active environment in turn (small batches: no threads to wake)."""
+    """:func:`step_env` for every active environment in turn (small batches: no threads to wake)."""
     for i in range(active.shape[0]):
-        if active[i]:
-            _step_env(i, *args)
+        _step_row(i, active, *args)
 
 
 @numba.njit(cache=True, error_model="numpy", boundscheck=False)
