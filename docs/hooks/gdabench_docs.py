@@ -42,6 +42,7 @@ EXTRAS = {
     "nevergrad": "the `nevergrad` designer: nevergrad's optimizers (NGOpt, DiscreteOnePlusOne, ...) on the voxel codes ([Designers from other ecosystems](designers/ecosystem.md))",
     "bo": "the `bo` designer: Bayesian optimisation on BoTorch (uses the torch already installed)",
     "ribs": "the `ribs-map-elites` and `ribs-cma-me` designers: pyribs' archive, emitters and scheduler",
+    "gpu": "the voxel engine on an NVIDIA GPU: `gdabench.envs.voxel.gpu` ([On a GPU](environments/voxel-engine.md#on-a-gpu))",
     "ray": "`--executor ray`: run trials (and their evaluation workers) on a local Ray instance or an existing Ray cluster",
     "tensorboard": "`--log tensorboard`: each generation's figures as TensorBoard event files",
     "bench": "`benchmarks/ppo_vs_sb3.py`, which compares the `ppo` controller with stable-baselines3's PPO",
