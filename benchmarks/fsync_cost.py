@@ -19,7 +19,7 @@ from unittest import mock
 
 from gdabench import Experiment, PluginChoice
 from gdabench.execution import Execution
-from gdabench.runner import compare
+from gdabench.running.runner import compare
 
 
 def timed(experiment: Experiment, out: Path, fsync: bool) -> float:

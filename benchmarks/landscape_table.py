@@ -26,7 +26,7 @@ import pandas as pd
 from gdabench import Experiment, PluginChoice, RunDirectory
 from gdabench.config import parse_seeds
 from gdabench.errors import GdabenchError
-from gdabench.plan import Plan, file_name
+from gdabench.running.plan import Plan, file_name
 from gdabench.plugins import registry
 from gdabench.report.summary import summarize, thresholds
 

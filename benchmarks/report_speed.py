@@ -18,7 +18,7 @@ from pathlib import Path
 import pandas as pd
 
 from gdabench import Experiment, PluginChoice
-from gdabench.runner import compare
+from gdabench.running.runner import compare
 from gdabench.report.build import write_report
 
 

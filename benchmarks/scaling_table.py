@@ -49,7 +49,7 @@ from gdabench.body import parse_shape
 from gdabench.config import parse_seeds
 from gdabench.errors import ConfigError, GdabenchError
 from gdabench.execution.options import Execution
-from gdabench.plan import Plan, file_name
+from gdabench.running.plan import Plan, file_name
 from gdabench.report.pairwise import a12, holm, magnitude, test_pair
 from gdabench.report.summary import per_run, thresholds
 from suite_runs import ensure_runs, run_dirs, stopped

@@ -16,7 +16,7 @@ from gdabench import Experiment, RunDirectory
 from gdabench.config import format_seeds
 from gdabench.errors import ConfigError, GdabenchError, RunFailure, Terminated
 from gdabench.execution.options import Execution
-from gdabench.runner import compare
+from gdabench.running.runner import compare
 
 
 def run_dirs(out: Path) -> list[Path]:

@@ -33,7 +33,7 @@ from .specs import ControllerSpec, DesignerSpec, EnvironmentSpec
 __version__ = "0.1.0"
 
 
-_LAZY = {"compare": "api", "open_run": "api", "Run": "api", "RunDirectory": "results", "RunListener": "events"}
+_LAZY = {"compare": "api", "open_run": "api", "Run": "api", "RunDirectory": "results", "RunListener": "running.events"}
 
 
 def __getattr__(name: str) -> Any:

@@ -20,12 +20,12 @@ from typing import Any, Iterable, Sequence
 import pandas as pd
 
 from .config import PluginChoice
-from .events import RunListener
 from .execution.options import Execution
 from .experiment_build import DEFAULTS, Choices, RunSetup, build_run
 from .plugins import Registry
 from .results import RunDirectory
-from .runner import compare as run_experiment
+from .running.events import RunListener
+from .running.runner import compare as run_experiment
 
 
 @dataclass(frozen=True)
@@ -98,7 +98,7 @@ def compare(
         reg=reg,
     )  # fmt: skip
     if progress and listener is None:
-        from .progress import ProgressDisplay
+        from .running.progress import ProgressDisplay
 
         with ProgressDisplay(setup.experiment) as display:
             return _run(setup, display, reg)

@@ -26,12 +26,12 @@ from .errors import ConfigError, GdabenchError, RunFailure, Terminated
 from .experiment_build import DEFAULTS, OPTIONS, RunSetup, build_run
 from .loggers import make_logger
 from .plugins import KINDS, registry
-from .progress import ProgressDisplay
 from .report.diversity import NEAR_COPY, SURVIVORS
 from .report.summary import failure_counts, nothing_measured, summarize, thresholds
 from .report.tables import summary_cells
 from .results import RunDirectory
-from .runner import compare as run_compare
+from .running.progress import ProgressDisplay
+from .running.runner import compare as run_compare
 
 try:  # typer >= 0.2x carries its own copy of click
     from typer._click import exceptions as click_errors
@@ -328,7 +328,7 @@ def _execute(designers: str, options: RunOptions) -> None:
 def _uncached(setup: RunSetup) -> list[tuple[str, str]]:
     if setup.execution.cache is None:
         return []
-    from .plan import Plan
+    from .running.plan import Plan
 
     plan = Plan.resolve(setup.experiment, registry(), designers=False)
     return sorted(plan.uncacheable.items())
@@ -420,7 +420,7 @@ def evaluate(
         from .config import check_seed
         from .execution.evaluation import evaluate as evaluate_task
         from .execution.tasks import EvalTask
-        from .plan import Plan
+        from .running.plan import Plan
         from .statuses import OK
 
         parsed = Body.from_text(body)

@@ -32,8 +32,8 @@ if TYPE_CHECKING:  # the event hooks' argument types; importing them here would 
     import pandas as pd
 
     from .config import Experiment
-    from .trial import GenerationReport
-    from .trial_spec import TrialSpec
+    from .running.trial import GenerationReport
+    from .running.trial_spec import TrialSpec
 
 PROJECT_NAME = "gdabench"
 

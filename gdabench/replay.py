@@ -17,10 +17,10 @@ import pandas as pd
 from .body import Body, as_body
 from .config import Experiment
 from .errors import ConfigError, RunDirectoryError
-from .plan import Plan
 from .plugins import registry
 from .report.animation import animate
 from .results import RunDirectory, atomic_write_bytes
+from .running.plan import Plan
 from .statuses import OK
 
 

@@ -10,7 +10,7 @@
     <run>/summary.csv           per designer: best reward, evaluations to the optimum, wall time
     <run>/checkpoints/<trial>.pkl
                                 pickled designer state after each generation (for --resume)
-    <run>/outcomes/             every body scored so far, while the run goes (:mod:`.execution.outcomes`)
+    <run>/outcomes/             every body scored so far, while the run goes (:mod:`.running.outcomes`)
     <run>/.lock, .writer.json   held by the one process writing the run, and who that is
 
 One process writes a run directory: a run or a resume holds an OS-level lock on it for its
@@ -42,8 +42,8 @@ from typing import Any, Callable, Mapping, Sequence
 import pandas as pd
 from filelock import FileLock, Timeout
 
-from . import faults
 from .errors import ConfigError, GdabenchError, RunDirectoryError, RunFailure, RunLockedError
+from .running import faults
 from .statuses import STATUSES
 
 FORMAT = "gdabench-run/1"

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from gdabench.events import RunListener
+from gdabench.running.events import RunListener
 
 
 class Killed(Exception):

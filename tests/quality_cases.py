@@ -30,7 +30,7 @@ import numpy as np
 import pandas as pd
 
 from gdabench import Experiment, PluginChoice
-from gdabench.runner import compare
+from gdabench.running.runner import compare
 from gdabench.report.stats import best_so_far_curve
 
 EXPECTATIONS = Path(__file__).parent / "expectations"

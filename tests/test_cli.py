@@ -147,7 +147,7 @@ def test_report_on_non_run_directory(tmp_path):
 
 def test_resume_continues_a_killed_run(tmp_path):
     from gdabench import Experiment, PluginChoice
-    from gdabench.runner import compare
+    from gdabench.running.runner import compare
     from listeners import KillAt, Killed
 
     exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), envs=PluginChoice("simple"), budget=100)

@@ -25,7 +25,7 @@ from gdabench.envs.simple import SumOfVoxels
 from gdabench.errors import ConfigError
 from gdabench.plugins import Registry
 from gdabench.execution import Execution
-from gdabench.runner import compare
+from gdabench.running.runner import compare
 from gdabench.specs import DesignerSpec
 from gdabench.testing import check_designer
 

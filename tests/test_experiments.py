@@ -12,7 +12,7 @@ from gdabench import hookimpl
 from gdabench.cli import app
 from gdabench.config import Experiment, PluginChoice
 from gdabench.plugins import Registry
-from gdabench.runner import compare
+from gdabench.running.runner import compare
 from processes import TIMING
 
 runner = CliRunner()
@@ -174,8 +174,8 @@ def test_the_report_of_a_suite_has_a_page_per_environment_and_one_across_them(tm
 @pytest.mark.parametrize("path", sorted((Path(__file__).parent.parent / "experiments").glob("*.toml")), ids=lambda p: p.name)
 def test_every_committed_experiment_resolves_into_a_plan(path):
     from gdabench.experiment_build import build_run
-    from gdabench.plan import Plan
     from gdabench.plugins import registry
+    from gdabench.running.plan import Plan
 
     experiment = build_run({"config": path}).experiment
     plan = Plan.resolve(experiment, registry())

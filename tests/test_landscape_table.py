@@ -31,7 +31,7 @@ def test_runs_each_pair_once_and_prints_a_row_per_pair(table, tmp_path, capsys):
 
 def test_seeds_added_later_count_in_the_designers_row(table, tmp_path, capsys):
     from gdabench import Experiment
-    from gdabench.runner import compare
+    from gdabench.running.runner import compare
 
     base = ["--designers", "random", "--envs", "target", "--budget", "20", "--population", "10", "--root", str(tmp_path)]
     assert table.main([*base, "--seeds", "0"]) == 0
@@ -74,7 +74,7 @@ def test_an_interrupted_run_is_finished_before_seeds_are_added(table, tmp_path, 
     import sys
 
     from gdabench import Experiment
-    from gdabench.runner import compare
+    from gdabench.running.runner import compare
 
     base = ["--designers", "random", "--envs", "target", "--budget", "20", "--population", "10", "--root", str(tmp_path)]
     assert table.main([*base, "--seeds", "0"]) == 0

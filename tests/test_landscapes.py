@@ -11,7 +11,7 @@ import pytest
 from typer.testing import CliRunner
 
 from gdabench import ConfigError, Experiment, PluginChoice, make_env, registry
-from gdabench.runner import compare
+from gdabench.running.runner import compare
 from gdabench.body import Body, is_connected, random_body
 from gdabench.cli import app
 from gdabench.envs import nk_optimum

@@ -13,8 +13,8 @@ import pytest
 
 import gdabench
 from gdabench.errors import ConfigError, TrialError
-from gdabench.events import RunListener
 from gdabench.execution import Execution
+from gdabench.running.events import RunListener
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "python.md"

@@ -20,7 +20,7 @@ import pytest
 from typer.testing import CliRunner
 
 from gdabench.cli import app
-from gdabench.faults import POINTS
+from gdabench.running.faults import POINTS
 from gdabench.results import RunDirectory
 from processes import cli, default_sigint, error_lines, table
 

@@ -26,8 +26,8 @@ from gdabench.report.build import write_report
 from gdabench.report.diversity import categorize, body_matrix
 from gdabench.report.stats import best_so_far_curve, bootstrap_ci, censored_median
 from gdabench.execution import Execution
-from gdabench.events import RunListener
-from gdabench.runner import compare
+from gdabench.running.events import RunListener
+from gdabench.running.runner import compare
 from gdabench.seeding import evaluation_seed
 
 DESIGNERS = ("ga", "random")

@@ -18,7 +18,7 @@ from gdabench.body import Body
 from gdabench.errors import ConfigError, TrialError
 from gdabench.plugins import Registry
 from gdabench.results import COLUMNS, RunDirectory
-from gdabench.runner import compare
+from gdabench.running.runner import compare
 from listeners import KillAt, Killed
 
 A, B, C, D = "33/00", "44/00", "34/30", "43/03"

@@ -21,7 +21,7 @@ import pandas as pd
 import pytest
 
 from gdabench import Experiment, PluginChoice
-from gdabench.runner import compare
+from gdabench.running.runner import compare
 from gdabench.body import Body
 from gdabench.errors import ConfigError
 from gdabench.execution import OK, EvalOutcome, EvalTask, Execution, make_executor

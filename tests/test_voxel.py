@@ -19,7 +19,7 @@ import gdabench
 from gdabench import ConfigError, make_env
 from gdabench.envs.voxel import engine
 from gdabench.envs.voxel.walker import WalkerBatch
-from gdabench.runner import compare as run_experiment
+from gdabench.running.runner import compare as run_experiment
 
 FIXTURE = Path(__file__).parent / "fixtures" / "voxel_parity.npz"
 CASES = ("falling-block", "lone-actuator", "standing", "walking", "folding", "unstable")

@@ -17,7 +17,7 @@ from gymnasium.utils.env_checker import check_env
 from PIL import Image
 
 import gdabench
-from gdabench.runner import compare as run_experiment
+from gdabench.running.runner import compare as run_experiment
 from gdabench import Body, ConfigError, Evaluation, make_controller, make_env
 from gdabench.controllers.open_loop import OpenLoop, Pattern
 from gdabench.envs.walker import ENV_ID, RETIRED_IDS, gym_env

@@ -30,9 +30,9 @@ from ..body import Body
 from ..config import Experiment
 from ..errors import ConfigError, GdabenchError, RunDirectoryError
 from ..names import file_name
-from ..plan import Plan
 from ..plugins import Registry, registry
 from ..results import RunDirectory
+from ..running.plan import Plan
 from ..statuses import COUNTED, OK
 from . import plots
 from .animation import animate

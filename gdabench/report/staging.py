@@ -16,9 +16,9 @@ from typing import Iterator
 
 from filelock import FileLock
 
-from .. import faults
 from ..errors import GdabenchError
 from ..results import check_out_dir, write_error
+from ..running import faults
 
 
 def _lock(out: Path) -> Path:

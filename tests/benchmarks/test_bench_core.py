@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from gdabench import Experiment, PluginChoice
-from gdabench.runner import compare
+from gdabench.running.runner import compare
 from gdabench.body import EVOGYM_VOXEL_WEIGHTS, invalid_reason
 from gdabench.designers.ga import GeneticAlgorithm
 from gdabench.envs.simple import SumOfVoxels

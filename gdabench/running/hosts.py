@@ -24,23 +24,25 @@ from typing import Any, Callable, Sequence
 import pandas as pd
 
 from ..errors import GdabenchError, one_line
+from ..execution import spawning
+from ..execution.cache import EvaluationCache
+from ..execution.evaluation import instance, progress_to
+from ..execution.executor import Executor
+from ..execution.options import Execution, make_executor
+from ..execution.pool import death_message, exit_when_orphaned
+from ..execution.tasks import EvalOutcome, EvalTask, Evaluate
 from ..results import Checkpoint, RunDirectory
-from ..trial import GenerationResult, Trial
-from ..trial_spec import TrialSpec
-from . import cores, spawning
-from .cache import EvaluationCache
-from .evaluation import instance, progress_to
-from .executor import Executor
-from .options import Execution, make_executor
+from . import cores
 from .outcomes import RunOutcomes
-from .pool import death_message, exit_when_orphaned
-from .tasks import EvalOutcome, EvalTask, Evaluate
+from .trial import GenerationResult, Trial
+from .trial_spec import TrialSpec
 
 
 @dataclass(frozen=True)
 class BodiesDone:
     """Progress inside a generation, sent while it runs: ``done`` of its ``total`` new bodies are evaluated;
-    ``note``: what the evaluation running now says about itself (:func:`.evaluation.report_progress`)."""
+    ``note``: what the evaluation running now says about itself
+    (:func:`gdabench.execution.evaluation.report_progress`)."""
 
     trial: int  # the spec's index
     generation: int

@@ -18,9 +18,9 @@ from rich.progress import (
     TimeRemainingColumn,
 )
 
-from .config import Experiment
+from ..config import Experiment
 from .events import RunListener
-from .execution.trials import BodiesDone
+from .hosts import BodiesDone
 from .trial import GenerationResult
 from .trial_spec import TrialSpec
 

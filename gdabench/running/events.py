@@ -7,14 +7,14 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
-from .errors import one_line
+from ..errors import one_line
 
 if TYPE_CHECKING:
     import pandas as pd
 
-    from .execution.trials import BodiesDone
+    from ..plugins import Registry
+    from .hosts import BodiesDone
     from .plan import Plan
-    from .plugins import Registry
     from .trial import GenerationResult
     from .trial_spec import TrialSpec
 
@@ -105,7 +105,7 @@ class PluginHooks(RunListener):
     def generation(self, spec: TrialSpec, result: GenerationResult) -> None:
         import pandas as pd
 
-        from .results import core_first
+        from ..results import core_first
 
         rows = core_first(pd.DataFrame.from_records(result.rows))
         self._call(

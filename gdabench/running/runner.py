@@ -1,7 +1,7 @@
 """Running an experiment: resolve it once, own its run directory, run its trials, record the truth.
 
 The process that calls :func:`compare` is the run directory's one writer (it holds its lock):
-trials run here or in workers (:mod:`gdabench.execution.trials`) and hand back each generation's
+trials run here or in workers (:mod:`gdabench.running.hosts`) and hand back each generation's
 rows and checkpoint, which are written here in the order they arrive.  A trial that fails
 fails alone: the others complete, and the run ends ``failed`` naming it, resumable.
 ``run.json``'s status always tells the truth: ``complete``, ``failed`` (with the error),
@@ -22,19 +22,19 @@ from collections import deque
 from pathlib import Path
 from typing import Any, Iterator, Sequence
 
-from . import faults
-from .config import Experiment
-from .errors import ConfigError, GdabenchError, RunDirectoryError, Terminated, TrialError, one_line
+from ..config import Experiment
+from ..errors import ConfigError, GdabenchError, RunDirectoryError, Terminated, TrialError, one_line
+from ..execution import spawning
+from ..execution.options import Execution, cpu_count
+from ..experiment_build import default_out_dir, stored_experiment, with_added_seeds
+from ..plugins import Registry, registry
+from ..report.summary import failure_counts, nothing_measured, summarize
+from ..results import SUMMARY, Checkpoint, RunDirectory, no_space, platform_info, utc_now, versions, write_error
+from . import cores, faults
 from .events import Listeners, PluginHooks, RunListener
-from .execution import cores, spawning
-from .execution.options import Execution, cpu_count
-from .execution.outcomes import RunOutcomes
-from .execution.trials import BodiesDone, InProcess, LocalProcesses, TrialHost, TrialWorkers
-from .experiment_build import default_out_dir, stored_experiment, with_added_seeds
+from .hosts import BodiesDone, InProcess, LocalProcesses, TrialHost, TrialWorkers
+from .outcomes import RunOutcomes
 from .plan import Plan
-from .plugins import Registry, registry
-from .report.summary import failure_counts, nothing_measured, summarize
-from .results import SUMMARY, Checkpoint, RunDirectory, no_space, platform_info, utc_now, versions, write_error
 from .trial import GenerationResult
 from .trial_spec import TrialSpec
 
@@ -194,7 +194,7 @@ def _signals_interrupt() -> Iterator[None]:
 
 
 class _SpareCores:
-    """The run's cores no trial runs on, lent to running trials once none is left waiting (:mod:`.execution.cores`)."""
+    """The run's cores no trial runs on, lent to running trials once none is left waiting (:mod:`.cores`)."""
 
     def __init__(self, cores: int):
         self.cores = cores
@@ -218,8 +218,8 @@ def _trial_workers(plan: Plan, run: RunDirectory, execution: Execution, trials: 
     """Where this run's trials go, how many at once, and the cores they may borrow."""
     run_id = run.meta["run_id"]
     if execution.executor == "ray":
-        from .execution.ray import RayConnection
-        from .execution.trials import RayActors
+        from ..execution.ray import RayConnection
+        from .hosts import RayActors
 
         with RayConnection(execution.ray_address) as connection:
             yield (

@@ -19,11 +19,11 @@ import json
 import shutil
 from pathlib import Path
 
-from .. import faults
+from ..execution.cache import plain
+from ..execution.tasks import EvalOutcome, EvalTask
 from ..results import atomic_write_bytes
 from ..statuses import OK
-from .cache import plain
-from .tasks import EvalOutcome, EvalTask
+from . import faults
 
 OUTCOMES = "outcomes"
 

@@ -1,7 +1,7 @@
 """A trial as resolved: what a worker needs to run one designer on one environment with one seed.
 
 Plain data (and the one function that builds a plugin object from its recipe), apart from
-:mod:`gdabench.plan`, which resolves an experiment through the plugin registry: the hook
+:mod:`gdabench.running.plan`, which resolves an experiment through the plugin registry: the hook
 specifications and the trial name these types without importing the registry.
 """
 
@@ -10,10 +10,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
-from . import seeding
-from .designer import Designer
-from .errors import ConfigError, GdabenchError, PluginError, one_line
-from .specs import Factory
+from .. import seeding
+from ..designer import Designer
+from ..errors import ConfigError, GdabenchError, PluginError, one_line
+from ..specs import Factory
 
 
 def build_plugin(kind: str, label: str, recipe: Factory, **harness: Any) -> Any:

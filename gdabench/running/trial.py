@@ -23,14 +23,14 @@ from typing import Any, Mapping
 
 import pandas as pd
 
-from . import seeding
-from .body import Body, as_body
-from .designer import Designer
-from .environment import Environment
-from .errors import DesignerError, GdabenchError, one_line
-from .execution.tasks import EvalTask, Evaluate
-from .results import COLUMNS, Checkpoint, utc_now
-from .statuses import COUNTED, DUPLICATE, INVALID, OK
+from .. import seeding
+from ..body import Body, as_body
+from ..designer import Designer
+from ..environment import Environment
+from ..errors import DesignerError, GdabenchError, one_line
+from ..execution.tasks import EvalTask, Evaluate
+from ..results import COLUMNS, Checkpoint, utc_now
+from ..statuses import COUNTED, DUPLICATE, INVALID, OK
 from .trial_spec import TrialSpec
 
 #: a designer that proposes nothing new for this many generations in a row is stopped

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from .options import cpu_count
+from ..execution.options import cpu_count
 
 _pool: Any = None  # shared count of spare cores (multiprocessing.Value), set in a run's trial processes
 _held: Any = None  # cores this process's current trial holds (multiprocessing.Value)
