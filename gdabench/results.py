@@ -189,6 +189,14 @@ def check_out_dir(path: Path) -> None:
         raise ConfigError(f"output path {path}: {ancestor} is not writable")
 
 
+def _wall_time_parts(meta: Mapping[str, Any]) -> list[float | None]:
+    """run.json's ``wall_seconds_by_part``: the seconds of each part of the run (the first run, then each
+    resume), None for a part that recorded none (killed with ``kill -9``, or still going); a run written
+    before the field existed has one None per part."""
+    parts = meta.get("wall_seconds_by_part")
+    return list(parts) if isinstance(parts, list) else [None] * (1 + len(meta.get("resumed") or []))
+
+
 class RunDirectory:
     """A run's directory on disk; the writer of a run holds its lock (:meth:`lock`)."""
 
@@ -344,6 +352,16 @@ class RunDirectory:
                 fh.truncate()
                 fh.flush()
                 os.fsync(fh.fileno())
+
+    def part_started(self) -> dict[str, Any]:
+        """The wall-time fields of run.json as a new part of the run (a resume) starts: its time unknown."""
+        return {"wall_seconds_by_part": [*_wall_time_parts(self.meta), None]}
+
+    def part_ended(self, seconds: float) -> dict[str, Any]:
+        """The wall-time fields of run.json once its last part has run ``seconds``: that part's time, and
+        ``wall_seconds``, the sum over the parts that recorded one."""
+        parts = [*_wall_time_parts(self.meta)[:-1], round(seconds, 3)]
+        return {"wall_seconds": round(sum(p for p in parts if p is not None), 3), "wall_seconds_by_part": parts}
 
     # -- evaluations ---------------------------------------------------------------------------
     @property

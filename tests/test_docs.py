@@ -42,6 +42,31 @@ def test_readme_table_is_the_reference_runs():
     assert "results/reference/simple/report/best_so_far.png" in README
 
 
+#: how the README and the tutorial name each column of the table a run prints in the terminal
+TERMINAL_COLUMNS = {"designer": "one row per designer", "best": "best reward", "hit": "optimum",
+                    "evals to": "after how many evaluations", "seconds": "wall time"}
+
+
+def test_readme_and_tutorial_describe_the_terminal_summary_as_printed(tmp_path):
+    """They once listed the mean best-so-far among its columns: only the report's table has that one."""
+    from typer.testing import CliRunner
+
+    from gdabench.cli import app
+
+    result = CliRunner().invoke(app, ["compare", "-d", "ga,random", "--budget", "25", "--out", str(tmp_path / "run"), "-q", "--no-report"])
+    assert result.exit_code == 0, result.output
+    header = next(line for line in result.output.splitlines() if "┃" in line)
+    printed = [cell.strip() for cell in header.split("┃")]
+    named = [next(key for key in TERMINAL_COLUMNS if cell.startswith(key)) for cell in printed]
+    assert named == list(TERMINAL_COLUMNS), printed
+    for page in (README, (ROOT / "docs" / "tutorial.md").read_text()):
+        text = " ".join(page.split())
+        said = re.search(r"prints a summary table, (one row per designer.*?)the report adds the mean best-so-far", text)
+        assert said, "a page no longer says what the terminal's summary table holds, and that the report adds the mean best-so-far"
+        assert all(phrase in said.group(1) for phrase in TERMINAL_COLUMNS.values()), said.group(1)
+        assert "best-so-far" not in said.group(1), said.group(1)
+
+
 def test_readme_designer_sketch_conforms(tmp_path, monkeypatch):
     code = re.search(r"```python\n(import gdabench\n\nclass (\w+)\(gdabench\.Designer\).*?)```", README, re.S)
     assert code, "the README's designer sketch is gone"

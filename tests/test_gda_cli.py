@@ -33,11 +33,12 @@ def test_gda_parameter_errors_are_one_line(tmp_path):
 
 
 def test_gda_runs_on_bodies_smaller_than_3x3(tmp_path):
-    """The docs once said gda needs bodies of at least 3x3; it runs on smaller ones, down to one row."""
-    for shape in ("2x2", "1x5"):
+    """The docs once said gda needs bodies of at least 3x3; it runs on smaller ones, down to a single voxel
+    (whose only valid bodies are 3 and 4: generation 0 draws one, the model samples the other)."""
+    for shape, population, budget in (("2x2", 10, 20), ("1x5", 10, 20), ("1x1", 1, 2)):
         out = tmp_path / shape
-        result = CliRunner().invoke(app, ["run", "gda[epochs=2,steps=5]", "--shape", shape, "--budget", "20", "--population", "10",
-                                          "--out", str(out), "-q", "--no-report"])
+        result = CliRunner().invoke(app, ["run", "gda[epochs=2,steps=5]", "--shape", shape, "--budget", str(budget),
+                                          "--population", str(population), "--out", str(out), "-q", "--no-report"])
         assert result.exit_code == 0, result.output
         rows = pd.read_parquet(out / "evaluations.parquet")
-        assert rows["n_evals"].max() == 20 and (rows.loc[rows["generation"] > 0, "source"] == "sampled").any()
+        assert rows["n_evals"].max() == budget and (rows.loc[rows["generation"] > 0, "source"] == "sampled").any()

@@ -197,6 +197,29 @@ def test_a_kill_mid_generation_keeps_the_bodies_it_evaluated(tmp_path, faulty_si
     assert not (out / "outcomes").exists()
 
 
+def test_wall_time_adds_up_the_first_run_and_every_resume(tmp_path, faulty_site, reference):
+    """run.json once had no wall time but its timestamps, which either count only the last resume or the
+    pauses between the parts; it keeps each part's time and their sum (a part killed with kill -9 records none)."""
+    out = tmp_path / "run"
+    for stop in (signal.SIGTERM, signal.SIGKILL):  # a first run stopped, a resume killed, a resume that completes
+        args = ["compare", "--resume", str(out), "-q", "--no-report"] if out.exists() else [*ARGS, "--out", str(out)]
+        proc = cli(*args, site=faulty_site, env=SLOW, background=True)
+        before = len(list(out.glob("pending/*/gen-*.parquet")))
+        wait_for(lambda: len(list(out.glob("pending/*/gen-*.parquet"))) > before, proc, "a new generation")
+        proc.send_signal(stop)
+        proc.communicate(timeout=60)
+        time.sleep(1.5)  # a pause between two parts is no part of the run's time
+    started = time.monotonic()
+    assert cli("compare", "--resume", str(out), "-q", "--no-report", site=faulty_site).returncode == 0
+    last = time.monotonic() - started
+    assert_whole(out, reference)
+    meta = RunDirectory.open(out).meta
+    first, killed, resumed = meta["wall_seconds_by_part"]
+    assert len(meta["resumed"]) == 2 and killed is None and 0 < first and 0 < resumed < last
+    assert meta["wall_seconds"] == pytest.approx(first + resumed, abs=0.002)
+    assert meta["wall_seconds"] > resumed  # not just the last part
+
+
 def test_trials_that_propose_the_same_body_score_it_once(tmp_path, faulty_site, reference):
     """ga and random share generation 0 under a seed (Evolution Gym's sampler): the run trains it once."""
     out, log = tmp_path / "run", tmp_path / "evaluated.txt"

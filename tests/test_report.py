@@ -489,3 +489,15 @@ def test_a_run_of_one_generation_draws_whole_generations_and_says_what_is_missin
     assert len(axes) == 7 and all(ax.get_xlim() == (-1, 1) for ax in axes)  # generation 0 between whole generations
     empty = [ax for ax in axes if [t.get_text() for t in ax.texts] == ["needs a previous generation"]]
     assert len(empty) == 3  # nearest survivor, and each designer's novelty panel
+
+
+def test_the_run_facts_give_its_wall_time_over_the_first_run_and_its_resumes(run_dir, report, tmp_path):
+    meta = json.loads((run_dir / "run.json").read_text())
+    assert meta["wall_seconds_by_part"] == [meta["wall_seconds"]] and meta["wall_seconds"] > 0
+    assert dict(report.facts)["wall time"] == f"{meta['wall_seconds']:.1f} s"
+    copy = tmp_path / "run"
+    shutil.copytree(run_dir, copy)
+    resumed = [{"at": meta["finished"], "executor": "local"}] * 2  # as if stopped twice, the second time by kill -9
+    (copy / "run.json").write_text(json.dumps({**meta, "resumed": resumed, "wall_seconds": 5.5, "wall_seconds_by_part": [2.0, None, 3.5]}))
+    facts = dict(write_report(copy, tmp_path / "report").facts)
+    assert facts["wall time"] == "5.5 s over the first run and 2 resumes (1 of the 3 parts recorded no time: killed with kill -9, or still going)"

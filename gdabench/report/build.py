@@ -131,6 +131,15 @@ def _facts(
     for key in ("created", "finished"):
         if meta.get(key):
             facts.append((key, str(meta[key])))
+    parts = meta.get("wall_seconds_by_part") or []
+    if any(p is not None for p in parts):  # the run's own wall time, summed over the first run and its resumes
+        text = f"{meta.get('wall_seconds', 0.0):.1f} s"
+        if len(parts) > 1:
+            text += f" over the first run and {len(parts) - 1} resume{'s' if len(parts) > 2 else ''}"
+        untimed = sum(p is None for p in parts)
+        if untimed:
+            text += f" ({untimed} of the {len(parts)} parts recorded no time: killed with kill -9, or still going)"
+        facts.append(("wall time", text))
     versions = meta.get("versions") or {}
     if versions:
         core = ", ".join(f"{k} {v}" for k, v in versions.items() if k != "plugins" and v)

@@ -51,6 +51,8 @@ def _new_meta(plan: Plan, reg: Registry, command: Sequence[str] | None, executio
         "env_version": envs[0].version if len(envs) == 1 else None,
         "envs": {e.label: {"optimum": e.optimum, "version": e.version} for e in envs},
         "execution": execution,
+        "wall_seconds": 0.0,
+        "wall_seconds_by_part": [None],
         "versions": versions(reg.distributions()),
         "platform": platform_info(),
     }
@@ -109,13 +111,15 @@ def compare(
         run.lock()
         added = {"added_seeds": list(experiment.seeds[len(stored.seeds):])} if experiment != stored else {}
         run.update_meta(status="running", config=experiment.to_json(), error=None,
-                        resumed=[*meta.get("resumed", []), {"at": utc_now(), **execution.to_json(), **added}])
+                        resumed=[*meta.get("resumed", []), {"at": utc_now(), **execution.to_json(), **added}],
+                        **run.part_started())
     else:
         if experiment is None:
             raise ConfigError("compare() needs an experiment unless it resumes a run")
         plan = Plan.resolve(experiment, reg)
         out = Path(out) if out is not None else default_out_dir(experiment)
         run = RunDirectory.create(out, _new_meta(plan, reg, command, execution.to_json()))
+    started = time.monotonic()  # this part of the run: the first run, or a resume
     listener.run_started(run.path, plan, resume)
     try:
         with _signals_interrupt(), spawning.scripts_shared(plan.from_script):
@@ -133,19 +137,22 @@ def compare(
             summary.to_csv(run.path / SUMMARY, index=False)
             measured_nothing = nothing_measured(failure_counts(frame))  # every trial ran, but some measured nothing
             status = "complete" if measured_nothing is None else "failed"
-            run.update_meta(status=status, error=measured_nothing, finished=utc_now(), failed_trials=[])
+            run.update_meta(status=status, error=measured_nothing, finished=utc_now(), failed_trials=[],
+                            **run.part_ended(time.monotonic() - started))
             RunOutcomes(run.path).discard()  # every trial is merged: nothing left to resume or share
     except KeyboardInterrupt as exc:
         with _uninterrupted():
             run.update_meta(
                 status="interrupted",
                 error="terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted by the user",
+                **run.part_ended(time.monotonic() - started),
             )
             listener.run_finished(run.path, "interrupted", None)
         raise
     except BaseException as exc:
         error = write_error(exc, run.path) if isinstance(exc, OSError) and no_space(exc) else exc
-        run.update_meta(status="failed", error=str(error) if isinstance(error, GdabenchError) else one_line(error))
+        run.update_meta(status="failed", error=str(error) if isinstance(error, GdabenchError) else one_line(error),
+                        **run.part_ended(time.monotonic() - started))
         listener.run_finished(run.path, "failed", None)
         if error is not exc:
             raise error from None
