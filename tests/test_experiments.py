@@ -188,7 +188,7 @@ def test_the_walker_experiment_is_the_thesis_co_design_and_its_budget_per_body_c
     path = Path(__file__).parent.parent / "experiments" / "walker.toml"
     faithful = build_run({"config": path}).experiment
     assert [d.name for d in faithful.designers] == ["ga", "cppn", "gda"] and [e.name for e in faithful.envs] == ["walker"]
-    assert faithful.controller.name == "ppo" and faithful.controller.params["timesteps"] == 1_000_000
+    assert faithful.controller.name == "ppo" and faithful.controller.params["timesteps"] == 50_000
     assert (faithful.population, faithful.budget) == (25, 125)
-    quick = build_run({"config": path, "controller_param": ["timesteps=50000"]}).experiment
-    assert quick.controller.params["timesteps"] == 50000
+    thesis = build_run({"config": path, "controller_param": ["timesteps=1000000"]}).experiment
+    assert thesis.controller.params["timesteps"] == 1_000_000
