@@ -8,13 +8,15 @@ be resumed); Ctrl-C exits 130 and SIGTERM 143, the run marked ``interrupted``.  
 
 from __future__ import annotations
 
+import atexit
 import inspect
 import os
 import signal
 import sys
+import threading
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Annotated, Any, Callable, Literal, Optional, get_type_hints
+from typing import Annotated, Any, Callable, Literal, NoReturn, Optional, get_type_hints
 
 import typer
 from rich.console import Console
@@ -546,7 +548,26 @@ def main() -> None:
         code = 2
     except (click_errors.Abort if hasattr(click_errors, "Abort") else typer.Abort):  # noqa: B030 - click's Abort, wherever this version keeps it
         code = 130
-    sys.exit(code if isinstance(code, int) else 0)
+    _exit(code if isinstance(code, int) else 0)
+
+
+def _exit(code: int) -> NoReturn:
+    """Exit with ``code`` once Python's own clean-up has run, skipping the native libraries' teardown.
+
+    pyarrow's thread pools, torn down at interpreter exit, abort the process now and then ("terminate
+    called without an active exception", apache/arrow#34314) after a run has finished and written
+    everything.  So: the ``atexit`` functions (multiprocessing's joins and finalizers, logging), flushed
+    streams, then ``os._exit``.  A thread that still works (none of ours) gets the ordinary exit instead.
+    """
+    if any(t.is_alive() and not t.daemon for t in threading.enumerate() if t is not threading.main_thread()):
+        sys.exit(code)
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe or stream: nothing more can be said on it
+            pass
+    os._exit(code)
 
 
 if __name__ == "__main__":

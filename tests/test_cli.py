@@ -201,3 +201,33 @@ def test_parse_seeds():
     for bad in ("1..0", "-1", "0,0"):
         with pytest.raises(ConfigError):
             parse_seeds(bad)
+
+
+_TEARDOWN_ABORTS = """
+import atexit, os, sys
+import gdabench.cli
+
+class NativeTeardown:  # stands for pyarrow's thread pools, which abort now and then at interpreter exit
+    def __del__(self):
+        os.abort()
+
+teardown = NativeTeardown()
+atexit.register(lambda: print("atexit ran", flush=True))
+sys.argv = ["gdabench", *sys.argv[1:]]
+gdabench.cli.main()
+"""
+
+
+@pytest.mark.parametrize("args, code", [(("list", "designers"), 0), (("info", "nope"), 2)])
+def test_the_console_script_exits_with_its_code_past_native_teardown(tmp_path, args, code):
+    """A finished command's exit code is the process's: the libraries' teardown at exit cannot abort it,
+    and clean-up registered with ``atexit`` (multiprocessing's, logging's) still runs."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "console.py"
+    script.write_text(_TEARDOWN_ABORTS)
+    done = subprocess.run([sys.executable, str(script), *args], capture_output=True, text=True, timeout=120)
+    assert done.returncode == code, done.stderr
+    assert done.stdout.rstrip().endswith("atexit ran")
+    assert ("random" in done.stdout) if code == 0 else done.stderr.startswith("error: unknown")
