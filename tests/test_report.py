@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from matplotlib.container import BarContainer, ErrorbarContainer
 from PIL import Image
 from typer.testing import CliRunner
 
@@ -21,10 +22,11 @@ from gdabench import Body, EnvironmentSpec, Environment, Experiment, PluginChoic
 from gdabench.cli import app
 from gdabench.errors import ConfigError
 from gdabench.plugins import Registry
+from gdabench.report import plots
 from gdabench.report.bodies import COLOURS, body_image
 from gdabench.report.build import write_report
-from gdabench.report.diversity import categorize, body_matrix
-from gdabench.report.stats import best_so_far_curve, bootstrap_ci, censored_median
+from gdabench.report.diversity import categorize, body_matrix, diversity
+from gdabench.report.stats import best_so_far_curve, bootstrap_ci, censored_median, generation_rewards
 from gdabench.execution import Execution
 from gdabench.running.events import RunListener
 from gdabench.running.runner import compare
@@ -59,6 +61,12 @@ def report(run_dir):
 @pytest.fixture(scope="module")
 def table(run_dir) -> pd.DataFrame:
     return pd.read_parquet(run_dir / "evaluations.parquet")
+
+
+@pytest.fixture(scope="module")
+def one_generation(tmp_path_factory) -> pd.DataFrame:
+    """The evaluations of `compare --designers ga,random --env simple --budget 25 --seeds 0,1`: one generation."""
+    return compare(_experiment(budget=25), tmp_path_factory.mktemp("runs") / "one").load_evaluations()
 
 
 # -- what is written ------------------------------------------------------------------------------
@@ -147,7 +155,7 @@ def test_default_threshold_is_the_environment_optimum(report, run_dir):
     assert "seeds reaching 100" in report.headers
 
 
-def test_reward_per_generation_matches_pandas(table, run_dir):
+def test_reward_per_generation_matches_pandas(table, run_dir, report):
     gens = pd.read_csv(run_dir / "report" / "generations.csv").set_index(["designer", "seed", "generation"])
     ok = table[table["status"] == "ok"]
     direct = ok.groupby(["designer", "seed", "generation"])["reward"].agg(["min", "mean", "max", "count"])
@@ -158,7 +166,7 @@ def test_reward_per_generation_matches_pandas(table, run_dir):
         assert gens.loc[key, "evaluated"] == row["count"]
 
 
-def test_best_so_far_curve_matches_pandas(table, run_dir):
+def test_best_so_far_curve_matches_pandas(table, run_dir, report):
     curve = pd.read_csv(run_dir / "report" / "best_so_far.csv").set_index(["designer", "evaluations"])
     for designer in DESIGNERS:
         for n in (1, 7, 25, 60, BUDGET):
@@ -172,7 +180,7 @@ def test_best_so_far_curve_matches_pandas(table, run_dir):
             assert row["runs"] == len(SEEDS)
 
 
-def test_diversity_matches_a_brute_force_count(table, run_dir):
+def test_diversity_matches_a_brute_force_count(table, run_dir, report):
     div = pd.read_csv(run_dir / "report" / "diversity.csv").set_index(["designer", "seed", "generation"])
     for (designer, seed, generation), g in table.groupby(["designer", "seed", "generation"]):
         row = div.loc[(designer, seed, generation)]
@@ -489,6 +497,49 @@ def test_a_run_of_one_generation_draws_whole_generations_and_says_what_is_missin
     assert len(axes) == 7 and all(ax.get_xlim() == (-1, 1) for ax in axes)  # generation 0 between whole generations
     empty = [ax for ax in axes if [t.get_text() for t in ax.texts] == ["needs a previous generation"]]
     assert len(empty) == 3  # nearest survivor, and each designer's novelty panel
+
+
+def _errorbars(ax) -> list[ErrorbarContainer]:
+    return [c for c in ax.containers if isinstance(c, ErrorbarContainer)]
+
+
+def _whole_generation_ticks(ax) -> bool:
+    low, high = ax.get_xlim()
+    ticks = [t for t in ax.get_xticks() if low <= t <= high]
+    return len(ticks) >= 2 and all(t == round(t) for t in ticks)
+
+
+def test_one_generation_is_drawn_as_points_with_error_bars(one_generation):
+    """A line and a band through one x draw nothing: one generation is a point per statistic with its spread."""
+    assert one_generation["generation"].nunique() == 1
+    rewards = plots.generation_rewards_figure(generation_rewards(one_generation), list(DESIGNERS))
+    axes = [ax for ax in rewards.axes if ax.get_visible()]
+    assert len(axes) == len(DESIGNERS)
+    for ax in axes:
+        assert len(_errorbars(ax)) == 3 and all(c.has_yerr for c in _errorbars(ax))  # max, mean, min over 2 seeds
+        assert ax.get_xlim() == (-1, 1) and _whole_generation_ticks(ax)
+    assert "error bars = inter-quartile range" in rewards.get_suptitle()
+
+    unique, pairwise, nearest = plots.diversity_figure(diversity(one_generation, 5, 2), list(DESIGNERS)).axes
+    for ax in (unique, pairwise):
+        assert len(_errorbars(ax)) == len(DESIGNERS) and ax.get_xlim() == (-1, 1) and _whole_generation_ticks(ax)
+    assert not nearest.containers and [t.get_text() for t in nearest.texts] == ["needs a previous generation"]
+
+
+def test_a_lone_generation_beside_longer_runs_is_drawn_not_left_empty(table):
+    """random stopped after two generations, ga ran on: random's only nearest-survivor generation is a point, its
+    novelty a bar, on whole-generation ticks; ga's curves stay lines."""
+    short = table[(table["designer"] == "ga") | (table["generation"] <= 1)]
+    div = diversity(short, 5, 2)
+    nearest = plots.diversity_figure(div, list(DESIGNERS)).axes[2]
+    (lone,) = _errorbars(nearest)
+    assert lone.get_label() == "random" and [line.get_label() for line in nearest.lines][0] == "ga"
+    assert _whole_generation_ticks(nearest)
+    ga, random = plots.novelty_figure(div, list(DESIGNERS), 2).axes[:2]
+    bars = [c for c in random.containers if isinstance(c, BarContainer)]
+    assert [b.get_label() for b in bars] == ["copy", "near-copy", "new materials", "novel shape"]
+    assert sum(b.patches[0].get_height() for b in bars) == pytest.approx(1.0) and _whole_generation_ticks(random)
+    assert ga.collections and not ga.containers  # the stack plot across generations, as before
 
 
 def test_the_run_facts_give_its_wall_time_over_the_first_run_and_its_resumes(run_dir, report, tmp_path):

@@ -91,6 +91,11 @@ def _budget(experiment: Experiment | None, frame: pd.DataFrame) -> int:
     return int(frame["n_evals"].max())
 
 
+def _spread(generations: pd.DataFrame) -> str:
+    """How the reward plot draws the spread over seeds: one generation is points with error bars, not a band."""
+    return "error bars" if generations["generation"].nunique() == 1 else "band"
+
+
 def _slug(label: str, taken: set[str]) -> str:
     base = file_name(label).strip("_") or "designer"
     slug, i = base, 1
@@ -402,7 +407,8 @@ def write_report(
                         f"rewards_per_generation{suffix}.png",
                         f"Reward per generation{where}",
                         "Min / mean / max reward of the bodies evaluated in each generation (as in the thesis's "
-                        "figures 5.1-5.7); median over seeds, band = inter-quartile range.",
+                        f"figures 5.1-5.7); median over seeds, {_spread(generations[generations['env'] == env])} = "
+                        "inter-quartile range.",
                         plots.png(plots.generation_rewards_figure(generations[generations["env"] == env], mine)),
                     ),
                 ],

@@ -39,11 +39,52 @@ def _grid(n: int, max_cols: int = 3, size: tuple[float, float] = (4.2, 3.0)) -> 
     return fig, axes.flat
 
 
-def _generation_axis(ax, generations: Sequence[int]) -> None:
+def _generation_axis(ax, generations: Sequence[int], lone: bool = False) -> None:
+    """Whole-generation ticks; around a lone point, limits that span the run's generations.
+
+    Left alone, matplotlib puts a single x at the centre of a +-0.05 range with fractional ticks.
+    """
     ax.set_xlabel("generation")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-    if len(set(generations)) == 1:  # a run of one generation: whole generations around it, not matplotlib's +-0.05
-        ax.set_xlim(generations[0] - 1, generations[0] + 1)
+    first, last = min(generations, default=0), max(generations, default=0)
+    if first == last:  # a run of one generation: whole generations around it
+        ax.set_xlim(first - 1, last + 1)
+    elif lone:  # lines elsewhere, one point here: the same generations as the lines
+        ax.set_xlim(first - 0.5, last + 0.5)
+
+
+def _dodge(i: int, n: int, width: float = 0.3) -> float:
+    """Offset of series ``i`` of ``n`` beside a whole generation, so that lone points do not hide each other."""
+    return 0.0 if n < 2 else width * (i / (n - 1) - 0.5)
+
+
+def _median_and_spread(ax, by_gen: Any, *, colour: str, label: str, spread: bool = True, offset: float = 0.0) -> bool:
+    """Draw the median over seeds per generation and its inter-quartile range; True if it was a lone point.
+
+    Across generations that is a line with a band; a single generation (or a single one with data) is
+    a point with error bars, since a line and a band through one x draw nothing.
+    """
+    median = by_gen.median()
+    if median.notna().sum() != 1:
+        ax.plot(median.index, median.to_numpy(), color=colour, lw=1.5, marker=".", ms=3, label=label)
+        if spread:
+            low, high = by_gen.quantile(0.25).to_numpy(), by_gen.quantile(0.75).to_numpy()
+            ax.fill_between(median.index, low, high, color=colour, alpha=0.15, lw=0)
+        return False
+    at = median.notna()
+    y = median[at].to_numpy()
+    yerr = None
+    if spread:
+        yerr = np.vstack([y - by_gen.quantile(0.25)[at].to_numpy(), by_gen.quantile(0.75)[at].to_numpy() - y])
+    x = median.index[at].to_numpy() + offset
+    ax.errorbar(x, y, yerr=yerr, fmt="o", ms=5, capsize=4, color=colour, label=label)
+    return True
+
+
+def _spread_words(lone: Sequence[bool]) -> str:
+    """How the inter-quartile range is drawn: a band along lines, error bars on lone points."""
+    words = [word for kind, word in ((False, "band"), (True, "error bars")) if kind in lone]
+    return " or ".join(words) or "band"
 
 
 def _empty(ax, why: str) -> None:
@@ -85,29 +126,24 @@ def generation_rewards_figure(generations: pd.DataFrame, designers: Sequence[str
     inter-quartile range over seeds; with one seed it is exactly the thesis's plot.
     """
     fig, axes = _grid(len(designers))
+    lone: list[bool] = []
     for ax, designer in zip(axes, designers):
         mine = generations[generations["designer"] == designer]
         seeds = mine["seed"].nunique()
-        for stat in ("max", "mean", "min"):
+        for i, stat in enumerate(("max", "mean", "min")):
             by_gen = mine.groupby("generation")[stat]
-            median = by_gen.median()
-            ax.plot(median.index, median.to_numpy(), color=STAT_COLOURS[stat], lw=1.5, marker=".", ms=3, label=stat)
-            if seeds > 1:
-                ax.fill_between(
-                    median.index,
-                    by_gen.quantile(0.25).to_numpy(),
-                    by_gen.quantile(0.75).to_numpy(),
-                    color=STAT_COLOURS[stat],
-                    alpha=0.15,
-                    lw=0,
-                )
+            colour, offset = STAT_COLOURS[stat], _dodge(i, 3)
+            lone.append(_median_and_spread(ax, by_gen, colour=colour, label=stat, spread=seeds > 1, offset=offset))
         ax.set_title(f"{designer} ({seeds} seed{'s' if seeds != 1 else ''})", fontsize=10)
-        _generation_axis(ax, list(mine["generation"]))
+        _generation_axis(ax, list(mine["generation"]), lone=lone[-1])
         ax.grid(alpha=0.3)
         ax.yaxis.set_tick_params(labelleft=True)
     axes[0].set_ylabel("reward")
     axes[0].legend(fontsize=8)
-    fig.suptitle("Reward per generation (median over seeds, band = inter-quartile range over seeds)", fontsize=10)
+    fig.suptitle(
+        f"Reward per generation (median over seeds, {_spread_words(lone)} = inter-quartile range over seeds)",
+        fontsize=10,
+    )
     return fig
 
 
@@ -120,28 +156,34 @@ def diversity_figure(div: pd.DataFrame, designers: Sequence[str]) -> Figure:
     ]
     fig = Figure(figsize=(13, 3.6), layout="constrained")
     axes = fig.subplots(1, len(panels))
+    lone: list[bool] = []
     for ax, (column, label) in zip(axes, panels):
+        drawn = []
         for i, designer in enumerate(designers):
             by_gen = div[div["designer"] == designer].groupby("generation")[column]
-            median = by_gen.median()
-            ax.plot(median.index, median.to_numpy(), color=f"C{i % 10}", lw=1.5, marker=".", ms=3, label=designer)
-            ax.fill_between(
-                median.index,
-                by_gen.quantile(0.25).to_numpy(),
-                by_gen.quantile(0.75).to_numpy(),
-                color=f"C{i % 10}",
-                alpha=0.15,
-                lw=0,
-            )
+            offset = _dodge(i, len(designers))
+            drawn.append(_median_and_spread(ax, by_gen, colour=f"C{i % 10}", label=designer, offset=offset))
         ax.set_title(label, fontsize=9)
-        _generation_axis(ax, list(div["generation"]))
+        _generation_axis(ax, list(div["generation"]), lone=any(drawn))
         if not div[column].notna().any():
             _empty(ax, "needs a previous generation")
+        else:
+            lone += drawn
         ax.grid(alpha=0.3)
     axes[0].set_ylim(0, 1.05)
     axes[0].legend(fontsize=8)
-    fig.suptitle("Diversity of proposals (median over seeds, band = inter-quartile range)", fontsize=10)
+    fig.suptitle(
+        f"Diversity of proposals (median over seeds, {_spread_words(lone)} = inter-quartile range)", fontsize=10
+    )
     return fig
+
+
+def _stacked_bar(ax, mean: pd.DataFrame) -> None:
+    """The category shares of the one generation that has them, as a bar: a stack plot of one x is empty."""
+    bottom = 0.0
+    for share, category, colour in zip(mean.iloc[0].to_numpy(), CATEGORIES, CATEGORY_COLOURS):
+        ax.bar(mean.index[0], share, bottom=bottom, width=0.6, color=colour, label=category)
+        bottom += share
 
 
 def novelty_figure(div: pd.DataFrame, designers: Sequence[str], near_copy: int) -> Figure:
@@ -151,12 +193,14 @@ def novelty_figure(div: pd.DataFrame, designers: Sequence[str], near_copy: int) 
     for ax, designer in zip(axes, designers):
         mine = div[(div["designer"] == designer) & div[share_columns[0]].notna()]
         mean = mine.groupby("generation")[share_columns].mean()
-        if len(mean):
+        if len(mean) > 1:
             ax.stackplot(mean.index, mean.to_numpy().T, labels=CATEGORIES, colors=CATEGORY_COLOURS, step="mid")
+        elif len(mean):
+            _stacked_bar(ax, mean)
         else:
             _empty(ax, "needs a previous generation")
         ax.set_title(designer, fontsize=10)
-        _generation_axis(ax, list(div["generation"]))
+        _generation_axis(ax, list(div["generation"]), lone=len(mean) == 1)
         ax.set_ylim(0, 1)
         ax.yaxis.set_tick_params(labelleft=True)
     axes[0].set_ylabel("share of proposals")
