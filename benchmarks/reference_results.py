@@ -2,6 +2,7 @@
 
     python benchmarks/reference_results.py                      # ga,cppn,gda on simple, 1000 evaluations, seeds 0..9
     python benchmarks/reference_results.py --designers ga,random --out /tmp/ref   # any other comparison
+    python benchmarks/reference_results.py --config experiments/walker.toml --out results/reference/walker
 
 It runs ``gdabench compare`` (niced, one thread per process: the machine is shared), resumes
 the run if a previous attempt was interrupted, writes the report, prints every file's size and
@@ -40,6 +41,7 @@ def _gdabench(*args: str) -> None:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--config", type=Path, help="experiment file (replaces the 4 below)")
     parser.add_argument("--designers", default="ga,cppn,gda")
     parser.add_argument("--env", default="simple")
     parser.add_argument("--budget", default="1000")
@@ -55,8 +57,9 @@ def main() -> int:
         out = Path("results") / "reference" / "simple"
     status = _status(out)
     if status is None:
-        _gdabench("compare", "--designers", args.designers, "--env", args.env, "--budget", args.budget, "--seeds", args.seeds,
-                  "--workers", args.workers, "--out", str(out), "--quiet", "--no-report")  # fmt: skip
+        what = (["--config", str(args.config)] if args.config else
+                ["--designers", args.designers, "--env", args.env, "--budget", args.budget, "--seeds", args.seeds])
+        _gdabench("compare", *what, "--workers", args.workers, "--out", str(out), "--quiet", "--no-report")
     elif status != "complete":
         _gdabench("compare", "--resume", str(out), "--workers", args.workers, "--quiet", "--no-report")
     _gdabench("report", str(out))

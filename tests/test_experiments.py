@@ -182,13 +182,14 @@ def test_every_committed_experiment_resolves_into_a_plan(path):
     assert len(plan.trials) == len(experiment.designers) * len(experiment.envs) * len(experiment.seeds) > 0
 
 
-def test_the_walker_experiment_is_the_thesis_co_design_and_its_budget_per_body_can_be_overridden():
+def test_the_walker_experiment_is_the_reference_co_design_and_its_budget_per_body_can_be_overridden():
     from gdabench.experiment_build import build_run
 
     path = Path(__file__).parent.parent / "experiments" / "walker.toml"
     faithful = build_run({"config": path}).experiment
-    assert [d.name for d in faithful.designers] == ["ga", "cppn", "gda"] and [e.name for e in faithful.envs] == ["walker"]
+    assert [d.name for d in faithful.designers] == ["ga", "cppn", "gda", "gda-fast", "random"]
+    assert [e.name for e in faithful.envs] == ["walker"] and faithful.seeds == (0, 1, 2, 3, 4)
     assert faithful.controller.name == "ppo" and faithful.controller.params["timesteps"] == 50_000
-    assert (faithful.population, faithful.budget) == (25, 125)
+    assert (faithful.population, faithful.budget) == (25, 150)  # 6 generations, as the reference run
     thesis = build_run({"config": path, "controller_param": ["timesteps=1000000"]}).experiment
     assert thesis.controller.params["timesteps"] == 1_000_000
