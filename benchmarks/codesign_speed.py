@@ -131,7 +131,7 @@ def run_evogym_sb3(name: str, timesteps: int, seed: int) -> dict[str, Any]:
 
 
 def spawn(arm: str, args: argparse.Namespace, names: list[str], seed: int) -> subprocess.Popen:
-    python, env = sys.executable, {**os.environ, "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    python, env = sys.executable, {**os.environ, "NUMBA_NUM_THREADS": str(args.numba_threads), "OMP_NUM_THREADS": "1"}
     if arm == "pymunk-before":
         env["PYTHONPATH"] = args.before
     if arm == "evogym-sb3":
@@ -171,6 +171,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--processes", type=int, default=2, help="lockstep processes for the whole-machine arm")
     parser.add_argument("--arms", default=",".join(ARMS))
+    parser.add_argument("--numba-threads", type=int, default=1, help="Numba threads per process (the engine's kernels)")
     parser.add_argument("--before", help="a git worktree of gdabench before lockstep training (for pymunk-before)")
     parser.add_argument("--evogym-python", help="a Python with evogym and stable-baselines3 (for evogym-sb3)")
     parser.add_argument("--one", help=argparse.SUPPRESS)

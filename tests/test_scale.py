@@ -146,6 +146,16 @@ def test_serial_without_timeout_evaluates_in_the_driver(tmp_path, reg):
     assert set(frame["pid"]) == {os.getpid()}
 
 
+@pytest.mark.skipif(os.cpu_count() < 2, reason="one core: every process has one Numba thread anyway")
+def test_worker_processes_run_their_kernels_on_one_thread(tmp_path, reg):
+    """Workers run side by side, one per core: Numba's thread per CPU in each made two walker trials 1.6x slower."""
+    exp = Experiment(designers=(PluginChoice("random"),), envs=PluginChoice("faulty", {"record_pid": True}),
+                     seeds=(0, 1), population=5, budget=10)  # fmt: skip
+    for name, execution in {"trials": Execution(jobs=2), "evaluations": Execution(jobs=1, workers=2)}.items():
+        frame = compare(exp, tmp_path / name, reg=reg, execution=execution).load_evaluations()
+        assert os.getpid() not in set(frame["pid"]) and set(frame["numba_threads"]) == {1}, name
+
+
 def test_dead_worker_is_replaced_and_others_keep_their_results(reg):
     """Two workers, six bodies, one kills its worker: only that body is an error, in any batch."""
     texts = ["33/00", "44/00", "34/00", "43/00", "30/30", "40/40"]

@@ -218,6 +218,7 @@ def _serve(conn: Connection, warm: Sequence[Factory], parent: int) -> None:
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     threading.Thread(target=exit_when_orphaned, args=(parent,), daemon=True).start()
+    spawning.one_core()
     prepare(warm)
     try:
         conn.send(READY)

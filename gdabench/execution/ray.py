@@ -21,6 +21,7 @@ from typing import Any, Sequence
 from ..errors import ConfigError, one_line
 from ..specs import Factory
 from ..statuses import ERROR
+from . import spawning
 from .evaluation import evaluate_batch, prepare
 from .executor import Executor
 from .pool import DIED, READY, RESULT, Backend, Slot, WorkerGone, WorkerPool
@@ -39,6 +40,7 @@ class Evaluator:
     """The actor: holds the environment and controller, evaluates one batch of bodies per call."""
 
     def __init__(self, warm: Sequence[Factory]):
+        spawning.one_core()
         prepare(warm)
 
     def ready(self) -> bool:

@@ -8,6 +8,7 @@ threads can deadlock), without what spawning does by default that a user would n
 - Ctrl-C in a terminal reaches every process of the group, and a child still setting itself up would
   print a traceback.  Children start with Ctrl-C ignored (they inherit it across ``exec``); the process
   that started them decides what an interrupt means and stops them.
+- Workers run side by side, one core each (:func:`one_core`).
 """
 
 from __future__ import annotations
@@ -61,6 +62,18 @@ def start(process: BaseProcess) -> None:
     """Start a spawned worker process with Ctrl-C ignored, importing the user's script only if it must."""
     with _ctrl_c_ignored(), (contextlib.nullcontext() if _share_script else _without_script()):
         process.start()
+
+
+def one_core() -> None:
+    """Run this worker's Numba kernels (the voxel engine's) on one thread: the run starts one worker per core.
+
+    Numba's default, a thread per CPU in every process, makes the workers' threads wait for each other's
+    cores: two co-design trials side by side ran 2,557-2,702 env steps/s together with two threads each
+    against 4,167-4,422 with one (docs/benchmarks/codesign-speed.md).  Results do not depend on it.
+    """
+    import numba
+
+    numba.set_num_threads(1)
 
 
 def from_script(factory: object) -> bool:

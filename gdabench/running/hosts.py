@@ -242,6 +242,7 @@ def _serve(conn: Connection, host: TrialHost, parent: int, pool: Any, held: Any)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the driver decides what an interrupt means
     host.progress = lambda bodies: conn.send((True, bodies))
     cores.install(pool, held)
+    spawning.one_core()
     threading.Thread(target=exit_when_orphaned, args=(parent,), daemon=True).start()
     while True:
         try:
@@ -338,6 +339,7 @@ class HostActor:
 
     def __init__(self, *args: Any):
         cores.install(None, None)
+        spawning.one_core()
         self.host = TrialHost(*args)
 
     def call(self, method: str, args: Sequence[Any]) -> tuple[bool, Any]:
