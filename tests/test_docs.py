@@ -7,6 +7,7 @@ Broken links, anchors and API references are the job of ``mkdocs build --strict`
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import re
@@ -40,6 +41,52 @@ def test_readme_table_is_the_reference_runs():
     table = re.search(r"## Summary per designer\n\n((?:\|.*\n)+)", summary).group(1)
     assert table in README, "regenerated reference run: copy its table (report/summary.md) into the README"
     assert "results/reference/simple/report/best_so_far.png" in README
+
+
+WALKER_RUN = ROOT / "results" / "reference" / "walker"
+
+
+def docs_hooks():
+    pytest.importorskip("mkdocs")
+    spec = importlib.util.spec_from_file_location("gdabench_docs", ROOT / "docs" / "hooks" / "gdabench_docs.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_walker_reference_page_shows_the_committed_runs_own_figures():
+    """The page's tables are generated from the committed report: the report must be that of the committed rows
+    (a part of the run committed without its report made again fails here), and the run walker.toml's."""
+    import pandas as pd
+
+    from gdabench.experiment_build import build_run
+    from gdabench.report.stats import generation_rewards
+    from gdabench.results import RunDirectory
+
+    page = (ROOT / "docs" / "benchmarks" / "reference-walker.md").read_text()
+    assert "<!-- gdabench:thesis-walker -->" in page and "<!-- gdabench:reference-summary walker -->" in page
+    run = RunDirectory.open(WALKER_RUN)
+    experiment = build_run({"config": ROOT / "experiments" / "walker.toml"}).experiment
+    config = run.meta["config"]
+    assert [d["name"] for d in config["designers"]] == [d.name for d in experiment.designers]
+    assert config["controller"]["label"] == experiment.controller.label
+    assert (config["population"], config["budget"], config["seeds"]) == (
+        experiment.population, experiment.budget, list(experiment.seeds))
+
+    rows = generation_rewards(run.load_evaluations())
+    committed = pd.read_csv(WALKER_RUN / "report" / "generations.csv")
+    pd.testing.assert_frame_equal(committed, rows, check_dtype=False)
+
+    hooks = docs_hooks()
+    table = hooks.thesis_walker(ROOT).splitlines()[2:]
+    assert len(table) == len(rows.groupby(["designer", "generation"]))
+    for (designer, generation), group in rows.groupby(["designer", "generation"]):
+        line = next(r for r in table if r.startswith(f"| {designer} | {generation} | {len(group)} | "))
+        assert f"| {group['max'].median():.2f} [{group['max'].min():.2f}, {group['max'].max():.2f}] |" in line
+        thesis = hooks.THESIS_WALKER_BEST.get(designer, {}).get(generation)
+        assert line.endswith(f"| {thesis:.2f} |" if thesis is not None else "|  |")
+    assert [r for r in table if r.startswith("| gda | 0 |")][0].endswith("| 6.22 |")  # the thesis's GDA, generation 0
+    assert hooks.reference_summary(ROOT, "walker") in (WALKER_RUN / "report" / "summary.md").read_text()
 
 
 #: how the README and the tutorial name each column of the table a run prints in the terminal

@@ -6,7 +6,10 @@ Generated so that they cannot drift from the code or the committed data:
   :data:`gdabench.results.COLUMNS` (the schema the runner writes);
 * ``<!-- gdabench:reference-summary -->`` becomes the per-designer table of the committed reference
   run, taken from ``results/reference/simple/report/summary.md`` (the README shows the same table;
-  ``tests/test_docs.py`` checks that);
+  ``tests/test_docs.py`` checks that); ``<!-- gdabench:reference-summary walker -->`` the same of
+  ``results/reference/walker/``;
+* ``<!-- gdabench:thesis-walker -->`` becomes the walker reference run's reward per generation beside
+  the thesis's (its chapter 5.1), from ``results/reference/walker/report/generations.csv``;
 * ``<!-- gdabench:extras -->`` becomes the table of the optional extras in ``pyproject.toml``.
 
 Files outside ``docs/`` that pages show or link to (the committed reference runs under
@@ -34,7 +37,13 @@ log = get_plugin_logger("gdabench")
 
 #: committed results published with the site (Markdown files there are not pages)
 PUBLISHED = "results/reference"
-REFERENCE_SUMMARY = "results/reference/simple/report/summary.md"
+#: the thesis's best reward per generation on Walker-v0 (chapter 5.1, one run each, PPO with 1e6 timesteps
+#: per body; SPEC.md): GDA in every generation it reports, the GA at its first and fifth, CPPN-NEAT at its first
+THESIS_WALKER_BEST = {
+    "gda": {0: 6.22, 1: 7.88, 2: 9.55, 3: 8.90, 4: 8.28},
+    "ga": {0: 8.89, 4: 9.53},
+    "cppn": {0: 9.56},
+}
 
 #: what each optional extra of pyproject.toml is for; an extra missing here fails the build
 EXTRAS = {
@@ -50,7 +59,8 @@ EXTRAS = {
     "lint": "`ruff check gdabench` and `mypy`, as CI runs them ([Development](development.md#lint-and-types))",
 }
 
-PLACEHOLDER = re.compile(r"<!-- gdabench:([a-z-]+) -->")
+#: ``<!-- gdabench:NAME -->`` or ``<!-- gdabench:NAME ARGUMENT -->``
+PLACEHOLDER = re.compile(r"<!-- gdabench:([a-z-]+)(?: ([a-z0-9_-]+))? -->")
 
 
 def _root(config: Any) -> Path:
@@ -68,9 +78,9 @@ def columns_table() -> str:
     return "\n".join(["| column | meaning |", "|---|---|", *rows])
 
 
-def reference_summary(root: Path) -> str:
+def reference_summary(root: Path, run: str = "simple") -> str:
     """The table under "Summary per designer" of the reference run's summary.md."""
-    path = root / REFERENCE_SUMMARY
+    path = root / PUBLISHED / run / "report" / "summary.md"
     try:
         lines = path.read_text().splitlines()
     except OSError as exc:
@@ -87,6 +97,28 @@ def reference_summary(root: Path) -> str:
     if not table:
         raise PluginError(f"{path}: no table under '## Summary per designer'")
     return "\n".join(table)
+
+
+def thesis_walker(root: Path) -> str:
+    """Per designer and generation of the walker reference run: the population's best, mean and worst reward
+    (medians over seeds; the best also its range), beside the thesis's best where it gives one."""
+    import pandas as pd
+
+    path = root / PUBLISHED / "walker" / "report" / "generations.csv"
+    try:
+        frame = pd.read_csv(path)
+    except OSError as exc:
+        raise PluginError(f"cannot read the walker reference run's generations {path}: {exc}") from exc
+    rows = ["| designer | generation | seeds | best: median [range] | mean | worst | thesis: best |",
+            "|---|--:|--:|--:|--:|--:|--:|"]
+    for (designer, generation), group in frame.groupby(["designer", "generation"], sort=False):
+        thesis = THESIS_WALKER_BEST.get(str(designer), {}).get(int(generation))
+        rows.append(
+            f"| {designer} | {generation} | {len(group)} | {group['max'].median():.2f} "
+            f"[{group['max'].min():.2f}, {group['max'].max():.2f}] | {group['mean'].median():.2f} "
+            f"| {group['min'].median():.2f} | {'' if thesis is None else f'{thesis:.2f}'} |"
+        )
+    return "\n".join(rows)
 
 
 def extras_table(root: Path) -> str:
@@ -139,16 +171,22 @@ def on_files(files: Files, config: Any) -> Files:
 
 def on_page_markdown(markdown: str, page: Any, config: Any, files: Files) -> str:
     root = _root(config)
-    generators = {
+    generators: dict[str, Any] = {
         "columns": columns_table,
-        "reference-summary": lambda: reference_summary(root),
+        "reference-summary": lambda run=None: reference_summary(root, run or "simple"),
+        "thesis-walker": lambda: thesis_walker(root),
         "extras": lambda: extras_table(root),
     }
+    with_argument = {"reference-summary"}
 
     def expand(match: re.Match[str]) -> str:
-        name = match.group(1)
+        name, argument = match.groups()
         if name not in generators:
             raise PluginError(f"{page.file.src_uri}: unknown placeholder <!-- gdabench:{name} -->")
-        return generators[name]()
+        if argument is None:
+            return generators[name]()
+        if name not in with_argument:
+            raise PluginError(f"{page.file.src_uri}: <!-- gdabench:{name} --> takes no argument ({argument!r} given)")
+        return generators[name](argument)
 
     return PLACEHOLDER.sub(expand, markdown)
