@@ -558,6 +558,9 @@ def _exit(code: int) -> NoReturn:
     called without an active exception", apache/arrow#34314) after a run has finished and written
     everything.  So: the ``atexit`` functions (multiprocessing's joins and finalizers, logging), flushed
     streams, then ``os._exit``.  A thread that still works (none of ours) gets the ordinary exit instead.
+    The cause measured, Arrow's threads releasing Python objects in a finalising interpreter, is gone from
+    gdabench's own reads (:func:`gdabench.results.read_parquet`); this stays for what the command's other
+    native libraries may leave behind.
     """
     if any(t.is_alive() and not t.daemon for t in threading.enumerate() if t is not threading.main_thread()):
         sys.exit(code)

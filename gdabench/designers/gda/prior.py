@@ -20,9 +20,9 @@ def load_prior(source: str, top: int, shape: tuple[int, int]) -> list[Body]:
         )
     try:
         if path.suffix == ".parquet":
-            import pandas as pd
+            from ...results import read_parquet
 
-            rows = pd.read_parquet(path, columns=["body", "reward", "status"])
+            rows = read_parquet(path, columns=["body", "reward", "status"])
             rows = rows[rows["status"] == "ok"].sort_values("reward", ascending=False, kind="stable")
             texts = list(dict.fromkeys(rows["body"]))
         else:
