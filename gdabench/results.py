@@ -135,8 +135,8 @@ def read_parquet(path: Path, columns: Sequence[str] | None = None) -> pd.DataFra
     One read of one file: pyarrow given a path may stat it and open it apart, and a writer's rename in
     between hands it the new file's bytes with the old file's size.  Arrow's file and buffer rather than a
     Python file object (or ``pandas.read_parquet``, which opens one): Arrow's threads then hold no Python
-    object, whose release in a finalising interpreter aborted about one process in 70 at exit ("terminate
-    called without an active exception"; 9 of 600 such reads against 0 of 480, measured 5 December 2026).
+    object, whose release in a finalising interpreter aborted about one process in 75 at exit ("terminate
+    called without an active exception"; ``benchmarks/exit_aborts.py``).
     """
     with pa.OSFile(str(path)) as file:
         data = file.read_buffer()
