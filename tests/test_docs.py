@@ -89,6 +89,39 @@ def test_the_walker_reference_page_shows_the_committed_runs_own_figures():
     assert hooks.reference_summary(ROOT, "walker") in (WALKER_RUN / "report" / "summary.md").read_text()
 
 
+def test_the_walker_page_describes_each_designers_best_bodies_by_their_materials():
+    """The thesis's figure 5.2 claims (noise, a block of horizontal actuators, patches) are checked on the
+    committed run's best body of every seed: the table's figures are those bodies', counted afresh here."""
+    import numpy as np
+
+    from gdabench.results import read_parquet
+
+    hooks = docs_hooks()
+    assert hooks.body_character("44444/44444")["same-material neighbours"] == 1.0
+    checker = hooks.body_character("12120/21210/00000")
+    assert checker["same-material neighbours"] == 0.0 and checker["voxels"] == 8.0 and checker["rigid"] == 0.5
+    assert "<!-- gdabench:walker-bodies -->" in (ROOT / "docs" / "benchmarks" / "reference-walker.md").read_text()
+
+    rows = read_parquet(WALKER_RUN / "evaluations.parquet", columns=["designer", "seed", "body", "reward"])
+    table = hooks.walker_bodies(ROOT).splitlines()
+    assert table[0] == ("| designer | seeds | voxels | rigid | soft | horizontal actuator | vertical actuator "
+                        "| same-material neighbours |")
+    for designer, trials in rows.groupby("designer"):
+        bests = [np.array([list(map(int, line)) for line in trial.sort_values("reward").body.iloc[-1].split("/")])
+                 for _, trial in trials.groupby("seed")]
+        horizontal = np.mean([(v == 3).sum() / (v > 0).sum() for v in bests])
+        same = []
+        for v in bests:
+            pairs = [(v[i, j], v[i + di, j + dj]) for i in range(v.shape[0]) for j in range(v.shape[1])
+                     for di, dj in ((0, 1), (1, 0)) if i + di < v.shape[0] and j + dj < v.shape[1]]
+            filled = [(a, b) for a, b in pairs if a and b]
+            same.append(sum(a == b for a, b in filled) / len(filled))
+        line = next(r for r in table if r.startswith(f"| {designer} | {len(bests)} | "))
+        cells = line.strip("|").split("|")
+        assert float(cells[5]) == pytest.approx(horizontal, abs=0.005), designer
+        assert float(cells[7]) == pytest.approx(np.mean(same), abs=0.005), designer
+
+
 #: how the README and the tutorial name each column of the table a run prints in the terminal
 TERMINAL_COLUMNS = {"designer": "one row per designer", "best": "best reward", "hit": "optimum",
                     "evals to": "after how many evaluations", "seconds": "wall time"}

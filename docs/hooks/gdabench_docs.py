@@ -10,6 +10,8 @@ Generated so that they cannot drift from the code or the committed data:
   ``results/reference/walker/``;
 * ``<!-- gdabench:thesis-walker -->`` becomes the walker reference run's reward per generation beside
   the thesis's (its chapter 5.1), from ``results/reference/walker/report/generations.csv``;
+* ``<!-- gdabench:walker-bodies -->`` becomes what the walker reference run's best bodies are made of (the
+  thesis's figure 5.2 describes its best robots so), from ``results/reference/walker/evaluations.parquet``;
 * ``<!-- gdabench:extras -->`` becomes the table of the optional extras in ``pyproject.toml``.
 
 Files outside ``docs/`` that pages show or link to (the committed reference runs under
@@ -121,6 +123,48 @@ def thesis_walker(root: Path) -> str:
     return "\n".join(rows)
 
 
+def body_character(text: str) -> dict[str, float]:
+    """A body's materials as shares of its voxels, and how often two adjacent voxels are of one material.
+
+    The last is the share of edge-sharing pairs of non-empty voxels with the same material: about 1/4
+    for Evolution Gym's random bodies, 1 for a body of one material.
+    """
+    from gdabench.body import VOXEL_NAMES, Body
+
+    voxels = Body.from_text(text).voxels
+    filled = voxels > 0
+    shares = {name: float((voxels == code).sum() / filled.sum()) for code, name in enumerate(VOXEL_NAMES) if code}
+    same = pairs = 0
+    for a, b in ((voxels[:, 1:], voxels[:, :-1]), (voxels[1:, :], voxels[:-1, :])):
+        both = (a > 0) & (b > 0)
+        pairs += int(both.sum())
+        same += int((both & (a == b)).sum())
+    return {"voxels": float(filled.sum()), **shares, "same-material neighbours": same / pairs if pairs else float("nan")}
+
+
+def walker_bodies(root: Path) -> str:
+    """Per designer, what the best body of each of its seeds is made of: means over seeds."""
+    import pandas as pd
+
+    from gdabench.results import read_parquet
+
+    path = root / PUBLISHED / "walker" / "evaluations.parquet"
+    try:
+        rows = read_parquet(path, columns=["designer", "seed", "body", "reward"])
+    except OSError as exc:
+        raise PluginError(f"cannot read the walker reference run's evaluations {path}: {exc}") from exc
+    rows = rows.dropna(subset=["reward"])
+    best = rows.loc[rows.groupby(["designer", "seed"], sort=False)["reward"].idxmax()]
+    character = pd.DataFrame([body_character(text) for text in best["body"]], index=best.index)
+    means = pd.concat([best[["designer"]], character], axis=1).groupby("designer", sort=False)
+    header = ["designer", "seeds", *character.columns]
+    lines = ["| " + " | ".join(header) + " |", "|---" + "|--:" * (len(header) - 1) + "|"]
+    for designer, group in means:
+        cells = [f"{group['voxels'].mean():.1f}", *(f"{group[c].mean():.2f}" for c in character.columns[1:])]
+        lines.append(f"| {designer} | {len(group)} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def extras_table(root: Path) -> str:
     with open(root / "pyproject.toml", "rb") as fh:
         extras: dict[str, list[str]] = tomllib.load(fh)["project"].get("optional-dependencies", {})
@@ -175,6 +219,7 @@ def on_page_markdown(markdown: str, page: Any, config: Any, files: Files) -> str
         "columns": columns_table,
         "reference-summary": lambda run=None: reference_summary(root, run or "simple"),
         "thesis-walker": lambda: thesis_walker(root),
+        "walker-bodies": lambda: walker_bodies(root),
         "extras": lambda: extras_table(root),
     }
     with_argument = {"reference-summary"}
