@@ -139,7 +139,8 @@ def body_character(text: str) -> dict[str, float]:
         both = (a > 0) & (b > 0)
         pairs += int(both.sum())
         same += int((both & (a == b)).sum())
-    return {"voxels": float(filled.sum()), **shares, "same-material neighbours": same / pairs if pairs else float("nan")}
+    same_share = same / pairs if pairs else float("nan")
+    return {"voxels": float(filled.sum()), **shares, "same-material neighbours": same_share}
 
 
 def walker_bodies(root: Path) -> str:
