@@ -64,6 +64,26 @@ def pair_agreement(a: pd.Series, b: pd.Series) -> float:
     return agree / total if total else float("nan")
 
 
+def read_transfer(path: Path) -> pd.DataFrame:
+    """The rows of a ``transfer.csv``, by designer and seed."""
+    return pd.read_csv(path, dtype={"body": str}).sort_values(["designer", "seed"]).reset_index(drop=True)
+
+
+def ranking(table: pd.DataFrame) -> pd.DataFrame:
+    """Per designer: its best bodies' mean reward in both simulators and its rank in each, best first."""
+    means = table.groupby("designer")[["walker", "evogym"]].mean()
+    means.insert(0, "seeds", table.groupby("designer").size())
+    means["rank walker"] = means["walker"].rank(ascending=False, method="min").astype(int)
+    means["rank evogym"] = means["evogym"].rank(ascending=False, method="min").astype(int)
+    return means.sort_values("walker", ascending=False)
+
+
+def agreement(table: pd.DataFrame) -> tuple[float, float]:
+    """Per body: Spearman's rank correlation of the two rewards, and the share of pairs ordered alike."""
+    rho = float(stats.spearmanr(table["walker"], table["evogym"]).statistic)
+    return rho, pair_agreement(table["walker"], table["evogym"])
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("run", type=Path)
@@ -88,14 +108,10 @@ def main() -> int:
     with ThreadPoolExecutor(args.jobs) as pool:
         list(pool.map(one, (row for _, row in todo.iterrows())))
 
-    table = pd.read_csv(out, dtype={"body": str}).sort_values(["designer", "seed"])
+    table = read_transfer(out)
     print(table.to_string(index=False, float_format="%.2f"))
-    means = table.groupby("designer")[["walker", "evogym"]].mean()
-    means["rank walker"] = means["walker"].rank(ascending=False, method="min").astype(int)
-    means["rank evogym"] = means["evogym"].rank(ascending=False, method="min").astype(int)
-    print(means.sort_values("walker", ascending=False).to_string(float_format="%.2f"))
-    rho = stats.spearmanr(table["walker"], table["evogym"]).statistic
-    alike = pair_agreement(table["walker"], table["evogym"])
+    print(ranking(table).to_string(float_format="%.2f"))
+    rho, alike = agreement(table)
     print(f"per body ({len(table)}): Spearman {rho:.2f}, pairs ordered alike {alike:.0%}")
     return 0
 

@@ -122,6 +122,32 @@ def test_the_walker_page_describes_each_designers_best_bodies_by_their_materials
         assert float(cells[7]) == pytest.approx(np.mean(same), abs=0.005), designer
 
 
+def test_the_walker_pages_transfer_check_is_of_the_committed_runs_best_bodies():
+    """transfer.csv holds finished trials' best bodies with their reward on walker as committed; the page shows
+    each of its rows, and ranks the designers by their mean in each simulator as a fresh count does."""
+    import pandas as pd
+
+    from gdabench.results import read_parquet
+
+    transfer = pd.read_csv(WALKER_RUN / "transfer.csv", dtype={"body": str})
+    rows = read_parquet(WALKER_RUN / "evaluations.parquet", columns=["designer", "seed", "body", "reward"])
+    best = rows.loc[rows.groupby(["designer", "seed"])["reward"].idxmax()].set_index(["designer", "seed"])
+    assert len(transfer) and not transfer.duplicated(["designer", "seed"]).any()
+    for r in transfer.itertuples():
+        assert best.loc[(r.designer, r.seed), "body"] == r.body
+        assert best.loc[(r.designer, r.seed), "reward"] == pytest.approx(r.walker, abs=1e-9)
+
+    page = docs_hooks().walker_transfer(ROOT).splitlines()
+    for r in transfer.itertuples():
+        assert f"| {r.designer} | {r.seed} | `{r.body}` | {r.walker:.2f} | {r.evogym:.2f} |" in page
+    means = transfer.groupby("designer")[["walker", "evogym"]].mean()
+    for column, rank_column in (("walker", 4), ("evogym", 5)):
+        order = means[column].sort_values(ascending=False).index
+        for place, designer in enumerate(order, 1):
+            cells = next(line for line in page if line.startswith(f"| {designer} | ")).strip("|").split("|")
+            assert int(cells[rank_column]) == place, (designer, column)
+
+
 #: how the README and the tutorial name each column of the table a run prints in the terminal
 TERMINAL_COLUMNS = {"designer": "one row per designer", "best": "best reward", "hit": "optimum",
                     "evals to": "after how many evaluations", "seconds": "wall time"}

@@ -12,6 +12,8 @@ Generated so that they cannot drift from the code or the committed data:
   the thesis's (its chapter 5.1), from ``results/reference/walker/report/generations.csv``;
 * ``<!-- gdabench:walker-bodies -->`` becomes what the walker reference run's best bodies are made of (the
   thesis's figure 5.2 describes its best robots so), from ``results/reference/walker/evaluations.parquet``;
+* ``<!-- gdabench:walker-transfer -->`` becomes the transfer check of that run's best bodies in Evolution
+  Gym, from its ``transfer.csv``, summarised by ``benchmarks/walker_transfer.py``'s own functions;
 * ``<!-- gdabench:extras -->`` becomes the table of the optional extras in ``pyproject.toml``.
 
 Files outside ``docs/`` that pages show or link to (the committed reference runs under
@@ -166,6 +168,38 @@ def walker_bodies(root: Path) -> str:
     return "\n".join(lines)
 
 
+def _benchmark(root: Path, name: str) -> Any:
+    """A script of ``benchmarks/`` as a module, for the page that shows what it measured."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, root / "benchmarks" / f"{name}.py")
+    if spec is None or spec.loader is None:
+        raise PluginError(f"cannot load benchmarks/{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def walker_transfer(root: Path) -> str:
+    """The designer ranking in both simulators, the per-body agreement, and every body's two rewards."""
+    transfer = _benchmark(root, "walker_transfer")
+    path = root / PUBLISHED / "walker" / "transfer.csv"
+    try:
+        table = transfer.read_transfer(path)
+    except OSError as exc:
+        raise PluginError(f"cannot read the walker reference run's transfer check {path}: {exc}") from exc
+    lines = ["| designer | seeds | walker: mean best | Evolution Gym: mean | rank on walker | rank in Evolution Gym |",
+             "|---|--:|--:|--:|--:|--:|"]
+    for designer, row in transfer.ranking(table).iterrows():
+        lines.append(f"| {designer} | {int(row['seeds'])} | {row['walker']:.2f} | {row['evogym']:.2f} "
+                     f"| {int(row['rank walker'])} | {int(row['rank evogym'])} |")
+    rho, alike = transfer.agreement(table)
+    lines += ["", f"Per body ({len(table)} bodies): Spearman {rho:.2f}, pairs ordered alike {alike:.0%}.", "",
+              "| designer | seed | body | walker | Evolution Gym |", "|---|--:|---|--:|--:|"]
+    lines += [f"| {r.designer} | {r.seed} | `{r.body}` | {r.walker:.2f} | {r.evogym:.2f} |" for r in table.itertuples()]
+    return "\n".join(lines)
+
+
 def extras_table(root: Path) -> str:
     with open(root / "pyproject.toml", "rb") as fh:
         extras: dict[str, list[str]] = tomllib.load(fh)["project"].get("optional-dependencies", {})
@@ -221,6 +255,7 @@ def on_page_markdown(markdown: str, page: Any, config: Any, files: Files) -> str
         "reference-summary": lambda run=None: reference_summary(root, run or "simple"),
         "thesis-walker": lambda: thesis_walker(root),
         "walker-bodies": lambda: walker_bodies(root),
+        "walker-transfer": lambda: walker_transfer(root),
         "extras": lambda: extras_table(root),
     }
     with_argument = {"reference-summary"}
