@@ -103,16 +103,21 @@ def reference_summary(root: Path, run: str = "simple") -> str:
     return "\n".join(table)
 
 
+def _read_walker(name: str, root: Path, reader: Any, **kwargs: Any) -> Any:
+    """A file of the committed walker reference run, read with ``reader``; a build error names it if it cannot be."""
+    path = root / PUBLISHED / "walker" / name
+    try:
+        return reader(path, **kwargs)
+    except OSError as exc:
+        raise PluginError(f"cannot read the walker reference run's {name} ({path}): {exc}") from exc
+
+
 def thesis_walker(root: Path) -> str:
     """Per designer and generation of the walker reference run: the population's best, mean and worst reward
     (medians over seeds; the best also its range), beside the thesis's best where it gives one."""
     import pandas as pd
 
-    path = root / PUBLISHED / "walker" / "report" / "generations.csv"
-    try:
-        frame = pd.read_csv(path)
-    except OSError as exc:
-        raise PluginError(f"cannot read the walker reference run's generations {path}: {exc}") from exc
+    frame = _read_walker("report/generations.csv", root, pd.read_csv)
     rows = ["| designer | generation | seeds | best: median [range] | mean | worst | thesis: best |",
             "|---|--:|--:|--:|--:|--:|--:|"]
     for (designer, generation), group in frame.groupby(["designer", "generation"], sort=False):
@@ -151,11 +156,7 @@ def walker_bodies(root: Path) -> str:
 
     from gdabench.results import read_parquet
 
-    path = root / PUBLISHED / "walker" / "evaluations.parquet"
-    try:
-        rows = read_parquet(path, columns=["designer", "seed", "body", "reward"])
-    except OSError as exc:
-        raise PluginError(f"cannot read the walker reference run's evaluations {path}: {exc}") from exc
+    rows = _read_walker("evaluations.parquet", root, read_parquet, columns=["designer", "seed", "body", "reward"])
     rows = rows.dropna(subset=["reward"])
     best = rows.loc[rows.groupby(["designer", "seed"], sort=False)["reward"].idxmax()]
     character = pd.DataFrame([body_character(text) for text in best["body"]], index=best.index)
@@ -183,11 +184,7 @@ def _benchmark(root: Path, name: str) -> Any:
 def walker_transfer(root: Path) -> str:
     """The designer ranking in both simulators, the per-body agreement, and every body's two rewards."""
     transfer = _benchmark(root, "walker_transfer")
-    path = root / PUBLISHED / "walker" / "transfer.csv"
-    try:
-        table = transfer.read_transfer(path)
-    except OSError as exc:
-        raise PluginError(f"cannot read the walker reference run's transfer check {path}: {exc}") from exc
+    table = _read_walker("transfer.csv", root, transfer.read_transfer)
     lines = ["| designer | seeds | walker: mean best | Evolution Gym: mean | rank on walker | rank in Evolution Gym |",
              "|---|--:|--:|--:|--:|--:|"]
     for designer, row in transfer.ranking(table).iterrows():
