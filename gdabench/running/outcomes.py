@@ -5,7 +5,9 @@ evaluated: a resume asks the restored designer for the same generation, and the 
 are taken from here instead of being trained again.  And trials of one run that propose the same body
 under the same seed (``ga`` and ``gda`` share generation 0 by design) score it once: a body's reward
 depends only on the body, the evaluation seed and the environment and controller recipes, so the second
-trial replays the first one's outcome, its files (a trained policy) copied to its own folder.
+trial replays the first one's outcome, its files (a trained policy) copied to its own folder.  That holds
+when the first trial recorded the body before the second asks for it; two such trials running at the same
+time may both train it (nothing waits on another trial's body), which costs time but not the table.
 
 Only deterministic environments are recorded, and only successful evaluations (an error may be
 transient).  A replayed outcome is the computed one, with its time; it is not marked ``cached`` (that
