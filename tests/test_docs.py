@@ -122,6 +122,31 @@ def test_the_walker_page_describes_each_designers_best_bodies_by_their_materials
         assert float(cells[7]) == pytest.approx(np.mean(same), abs=0.005), designer
 
 
+def test_the_thesis_statements_are_checked_seed_by_seed():
+    """Two made-up seeds, seed 0 built to bear every statement of the thesis out and seed 1 to contradict it."""
+    import pandas as pd
+
+    hooks = docs_hooks()
+    runs = {  # (designer, seed): per generation, the two bodies' rewards (worst, best)
+        ("gda", 0): ([0, 1, 2, 3, 4], [5, 6, 7, 6.5, 6]), ("gda", 1): ([4, 3, 2, 1, 0], [7, 6, 5, 6, 7]),
+        ("ga", 0): ([0, 1, 2, 3, 4], [1, 2, 3, 4, 5]), ("ga", 1): ([4, 3, 2, 1, 0], [5, 6, 7, 8, 9]),
+        ("cppn", 0): ([0, 0, 0, 0, 0], [9, 8, 7, 6, 5]), ("cppn", 1): ([0, 1, 2, 3, 4], [1, 2, 3, 4, 10]),
+    }
+    rows = []
+    for (designer, seed), (worst, best) in runs.items():
+        rewards = [r for pair in zip(worst, best) for r in pair]
+        rows += [{"env": "walker", "designer": designer, "seed": seed, "generation": i // 2, "status": "ok",
+                  "reward": float(r), "n_evals": i + 1} for i, r in enumerate(rewards)]
+    claims = hooks.thesis_claims(pd.DataFrame(rows))
+    assert [c["holds"] for c in claims] == [[0], [0], [0], [0], [], [0], [0], []]
+    assert all(c["seeds"] == 2 for c in claims)
+    assert claims[0]["figures"] == "0: 5.00 to 7.00; 1: 7.00 to 5.00"
+    assert claims[-1]["figures"] == "0: cppn; 1: cppn"  # the same winner on both seeds: no variance shown
+    assert "<!-- gdabench:walker-claims -->" in (ROOT / "docs" / "benchmarks" / "reference-walker.md").read_text()
+    table = hooks.walker_claims(ROOT).splitlines()
+    assert len(table) == 2 + len(claims) and all(" seeds | " in line for line in table[2:])
+
+
 def test_the_walker_pages_transfer_check_is_of_the_committed_runs_best_bodies():
     """transfer.csv holds finished trials' best bodies with their reward on walker as committed; the page shows
     each of its rows, and ranks the designers by their mean in each simulator as a fresh count does."""

@@ -12,6 +12,8 @@ Generated so that they cannot drift from the code or the committed data:
   the thesis's (its chapter 5.1), from ``results/reference/walker/report/generations.csv``;
 * ``<!-- gdabench:walker-bodies -->`` becomes what the walker reference run's best bodies are made of (the
   thesis's figure 5.2 describes its best robots so), from ``results/reference/walker/evaluations.parquet``;
+* ``<!-- gdabench:walker-claims -->`` becomes the thesis's statements about its figure 5.1, each checked on every
+  seed of the walker reference run;
 * ``<!-- gdabench:walker-transfer -->`` becomes the transfer check of that run's best bodies in Evolution
   Gym, from its ``transfer.csv``, summarised by ``benchmarks/walker_transfer.py``'s own functions;
 * ``<!-- gdabench:extras -->`` becomes the table of the optional extras in ``pyproject.toml``.
@@ -128,6 +130,102 @@ def thesis_walker(root: Path) -> str:
             f"| {group['min'].median():.2f} | {'' if thesis is None else f'{thesis:.2f}'} |"
         )
     return "\n".join(rows)
+
+
+def _rises(values: Any) -> float:
+    """Spearman's correlation of a run's per-generation figure with the generation (positive: it rises)."""
+    from scipy.stats import spearmanr
+
+    values = list(values)
+    if len(set(values)) < 2:
+        return 0.0  # a flat figure does not rise
+    return float(spearmanr(range(len(values)), values).statistic)
+
+
+def thesis_claims(evaluations: Any) -> list[dict[str, Any]]:
+    """The thesis's statements about figure 5.1 (chapter 5.1), each checked on every seed of ``evaluations``.
+
+    One dict per statement: its words, the thesis's own figures, the check made here, the seeds where it
+    holds, the seeds checked and each seed's figures.  A statement about one designer needs that designer's
+    seed; one that compares designers needs all of them on that seed.  A generation's figures are those of
+    the bodies evaluated in it (a GA's survivors are not evaluated again, so they are not in it).
+    """
+    from gdabench.report.stats import generation_rewards
+
+    gens = {key: g.set_index("generation") for key, g in generation_rewards(evaluations).groupby(["designer", "seed"])}
+    seeds = sorted({seed for _, seed in gens})
+    ok = evaluations[evaluations["status"] == "ok"]
+
+    def early_best(designer: str, seed: int, n: int = 75) -> float:
+        trial = ok[(ok["designer"] == designer) & (ok["seed"] == seed)]
+        return float(trial.loc[trial["n_evals"] <= n, "reward"].max())
+
+    def check(designers: tuple[str, ...], test: Any) -> tuple[list[int], list[str]]:
+        held, details = [], []
+        for seed in seeds:
+            if all((d, seed) in gens for d in designers):
+                holds, detail = test(*(gens[(d, seed)] for d in designers), seed)
+                if holds:
+                    held.append(seed)
+                details.append(f"{seed}: {detail}")
+        return held, details
+
+    def all_rise(g: Any) -> bool:
+        return min(_rises(g[c]) for c in ("min", "mean", "max")) > 0
+
+    claims = [
+        ("The GDA completes the task in only two generations", "best 6.22, 7.88, 9.55",
+         "gda's best rises from generation 0 to 2", ("gda",),
+         lambda g, s: (g["max"][2] > g["max"][0], f"{g['max'][0]:.2f} to {g['max'][2]:.2f}")),
+        ("After the second generation, the maximum reward decreases again slightly", "9.55, then 8.90, 8.28",
+         "gda's best of generations 3 and 4 below generation 2's", ("gda",),
+         lambda g, s: (max(g["max"][3], g["max"][4]) < g["max"][2],
+                       f"{g['max'][2]:.2f}, then {g['max'][3]:.2f}, {g['max'][4]:.2f}")),
+        ("The lowest rewards of the GDA do increase", "figure only",
+         "gda's worst rises with the generation (Spearman > 0)", ("gda",),
+         lambda g, s: (_rises(g["min"]) > 0, f"{_rises(g['min']):+.2f}")),
+        ("Only in the GA do the minimum, maximum and average rewards steadily increase",
+         "best 8.89 to 9.53 by generation 4",
+         "ga's worst, mean and best all rise (Spearman > 0)", ("ga",),
+         lambda g, s: (all_rise(g), ", ".join(f"{_rises(g[c]):+.2f}" for c in ("min", "mean", "max")))),
+        ("... and not in the others", "figure only", "cppn's and gda's do not all rise", ("cppn", "gda"),
+         lambda c, g, s: (not all_rise(c) and not all_rise(g),
+                          ", ".join(f"{d} {'all rise' if all_rise(x) else 'not all'}"
+                                    for d, x in (("cppn", c), ("gda", g))))),
+        ("By chance, CPPN-NEAT even achieved walking in the first generation", "9.56 against 8.89 and 6.22",
+         "cppn's generation-0 best above ga's and gda's", ("cppn", "ga", "gda"),
+         lambda c, a, g, s: (c["max"][0] > max(a["max"][0], g["max"][0]),
+                             f"{c['max'][0]:.2f} against {a['max'][0]:.2f}, {g['max'][0]:.2f}")),
+        ("The GDA achieved walking faster than the GA", "9.55 in generation 2, the GA 9.53 in generation 4",
+         "gda's best of its first 75 evaluations above ga's", ("gda", "ga"),
+         lambda g, a, s: (early_best("gda", s) > early_best("ga", s),
+                          f"{early_best('gda', s):.2f} against {early_best('ga', s):.2f}")),
+        ("Running this experiment multiple times is expected to lead to different outcomes", "one run per designer",
+         "which of ga, cppn, gda ends best differs between seeds", ("ga", "cppn", "gda"),
+         lambda a, c, g, s: (True, max(zip((x["max"].max() for x in (a, c, g)), ("ga", "cppn", "gda")))[1])),
+    ]
+    out = []
+    for words, thesis, here, designers, test in claims:
+        held, details = check(designers, test)
+        out.append({"claim": words, "thesis": thesis, "check": here, "holds": held, "seeds": len(details),
+                    "figures": "; ".join(details)})
+    last = out[-1]  # holds on every seed if the seeds disagree on the winner, on none if they agree
+    if len({d.split(": ")[1] for d in last["figures"].split("; ")}) < 2:
+        last["holds"] = []
+    return out
+
+
+def walker_claims(root: Path) -> str:
+    """:func:`thesis_claims` of the committed walker run's finished trials, as a table."""
+    from gdabench.results import read_parquet
+
+    rows = _read_walker("evaluations.parquet", root, read_parquet)
+    lines = ["| the thesis (chapter 5.1) | its figures | checked here as | holds on | per seed |",
+             "|---|---|---|---|---|"]
+    for c in thesis_claims(rows):
+        lines.append(f"| {c['claim']} | {c['thesis']} | {c['check']} | {len(c['holds'])} of {c['seeds']} seeds "
+                     f"| {c['figures']} |")
+    return "\n".join(lines)
 
 
 def body_character(text: str) -> dict[str, float]:
@@ -253,6 +351,7 @@ def on_page_markdown(markdown: str, page: Any, config: Any, files: Files) -> str
         "thesis-walker": lambda: thesis_walker(root),
         "walker-bodies": lambda: walker_bodies(root),
         "walker-transfer": lambda: walker_transfer(root),
+        "walker-claims": lambda: walker_claims(root),
         "extras": lambda: extras_table(root),
     }
     with_argument = {"reference-summary"}
