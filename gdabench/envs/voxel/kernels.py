@@ -195,12 +195,7 @@ def _resolve_point(p, main_edges, m, corner, pm, em, vm, fm, apply_m, ref_edges,
 
 @_jit
 def _slope(xp, xv, ne, ea, rest, k, cforce, n, fe, inc, start, n_a, out_a):
-    """``PhysicsEngine::get_pos_vel_slope``: accelerations of the robot's points (mass 1) at one RK4 stage.
-
-    Spring forces are gathered per point from ``inc`` (its edges where it is end ``a``, then where it
-    is end ``b``, each in edge order): the same additions in the same order as Evolution Gym's scatter
-    over all ``a`` ends, then all ``b`` ends.
-    """
+    """``PhysicsEngine::get_pos_vel_slope``: accelerations of the robot's points (mass 1) at one RK4 stage."""
     for j in range(ne):
         a = ea[j, 0]
         b = ea[j, 1]
@@ -210,6 +205,17 @@ def _slope(xp, xv, ne, ea, rest, k, cforce, n, fe, inc, start, n_a, out_a):
         mag = (dist - rest[j]) * k[j] / dist
         fe[j, 0] = dx * mag
         fe[j, 1] = dy * mag
+    _accelerations(xp, xv, cforce, n, fe, inc, start, n_a, out_a)
+
+
+@_jit
+def _accelerations(xp, xv, cforce, n, fe, inc, start, n_a, out_a):
+    """The second half of :func:`_slope`, from the springs' forces ``fe``.
+
+    Spring forces are gathered per point from ``inc`` (its edges where it is end ``a``, then where it
+    is end ``b``, each in edge order): the same additions in the same order as Evolution Gym's scatter
+    over all ``a`` ends, then all ``b`` ends.
+    """
     for i in range(n):
         fx = 0.0
         fy = 0.0
@@ -300,19 +306,23 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
                                bb[q, 0], bb[q, 1], bb[q, 2], bb[q, 3]):
                         _resolve_point(p, tbe, t, corner, tpos, tedge, tzero, tzero, False, sbe, q, pos, ea, esurf, vt,
                                        cf, True, 1)
-    # rest lengths re-anchored towards their goals
+    # rest lengths re-anchored towards their goals; the lengths they are measured from are those of
+    # RK4's first stage (its positions are these), so that stage's spring forces are computed here too
     for j in range(ne):
         dx = pos[ea[j, 0], 0] - pos[ea[j, 1], 0]
         dy = pos[ea[j, 0], 1] - pos[ea[j, 1], 1]
         dist = math.sqrt(dx * dx + dy * dy)
         rest[j] = dist + (goal[j] - dist) * CONVERGENCE
+        mag = (dist - rest[j]) * k[j] / dist
+        fe[j, 0] = dx * mag
+        fe[j, 1] = dy * mag
     # RK4 with the collision forces held
     for i in range(n):
         x0[i, 0] = pos[i, 0]
         x0[i, 1] = pos[i, 1]
         v0[i, 0] = vel[i, 0]
         v0[i, 1] = vel[i, 1]
-    _slope(x0, v0, ne, ea, rest, k, cf, n, fe, inc, start, n_a, acc)
+    _accelerations(x0, v0, cf, n, fe, inc, start, n_a, acc)
     for i in range(n):
         for c in range(2):
             kp = v0[i, c] * DT
@@ -341,13 +351,16 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
         dx = pos[ea[j, 0], 0] - pos[ea[j, 1], 0]
         dy = pos[ea[j, 0], 1] - pos[ea[j, 1], 1]
         dist = math.sqrt(dx * dx + dy * dy)
-        over = (dist - rest0[j] * (1 + BAND)) / (dist * 2)
-        under = (dist - rest0[j] * (1 - BAND)) / (dist * 2)
         stress = dist / rest0[j]
-        ox = dx * over if stress > 1 + BAND else 0.0
-        oy = dy * over if stress > 1 + BAND else 0.0
-        ux = dx * under if stress < 1 - BAND else 0.0
-        uy = dy * under if stress < 1 - BAND else 0.0
+        ox = oy = ux = uy = 0.0
+        if stress > 1 + BAND:  # the corrections only where they apply (most edges are within the band)
+            over = (dist - rest0[j] * (1 + BAND)) / (dist * 2)
+            ox = dx * over
+            oy = dy * over
+        if stress < 1 - BAND:
+            under = (dist - rest0[j] * (1 - BAND)) / (dist * 2)
+            ux = dx * under
+            uy = dy * under
         corr[j, 0] = (ox + ux) * 0.8
         corr[j, 1] = (oy + uy) * 0.8
     for j in range(ne):
@@ -364,19 +377,16 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
             dx = pos[a, 0] - pos[b, 0]
             dy = pos[a, 1] - pos[b, 1]
             dist = math.sqrt(dx * dx + dy * dy)
-            over = (dist - rest0[j] * (1 + BAND_RIGID)) / (dist * 2)
-            under = (dist - rest0[j] * (1 - BAND_RIGID)) / (dist * 2)
-            ox = dx * over
-            oy = dy * over
-            ux = dx * under
-            uy = dy * under
             stress = dist / rest0[j]
-            if stress < 1 + BAND_RIGID:
-                ox = 0.0
-                oy = 0.0
-            if stress > 1 - BAND_RIGID:
-                ux = 0.0
-                uy = 0.0
+            ox = oy = ux = uy = 0.0
+            if not stress < 1 + BAND_RIGID:  # (as Evolution Gym: a NaN stress keeps both)
+                over = (dist - rest0[j] * (1 + BAND_RIGID)) / (dist * 2)
+                ox = dx * over
+                oy = dy * over
+            if not stress > 1 - BAND_RIGID:
+                under = (dist - rest0[j] * (1 - BAND_RIGID)) / (dist * 2)
+                ux = dx * under
+                uy = dy * under
             pos[a, 0] -= (ox + ux) * 0.5
             pos[a, 1] -= (oy + uy) * 0.5
             pos[b, 0] += (ox + ux) * 0.5
