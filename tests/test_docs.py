@@ -147,6 +147,37 @@ def test_the_thesis_statements_are_checked_seed_by_seed():
     assert len(table) == 2 + len(claims) and all(" seeds | " in line for line in table[2:])
 
 
+def test_the_thesis_variants_are_set_beside_their_designers_seed_by_seed():
+    """A variant (``ga[survivors=5]``) takes its designer's place in the thesis's statements and sits beside it
+    per seed; a trial still running is left out, and each pair's medians are over the seeds both have run."""
+    import pandas as pd
+
+    hooks = docs_hooks()
+
+    def trial(label: str, seed: int, rewards: list[float], budget: int = 3) -> list[dict]:
+        return [{"designer": label, "designer_name": label.split("[")[0], "seed": seed, "generation": i,
+                 "status": "ok", "reward": r, "n_evals": i + 1, "budget": budget} for i, r in enumerate(rewards)]
+
+    main = pd.DataFrame(trial("ga", 0, [1, 2, 3]) + trial("ga", 1, [1, 1, 5]) + trial("gda", 0, [2, 2, 2])
+                        + trial("gda", 1, [4, 4, 4]) + trial("cppn", 0, [9, 9, 9]))
+    variants = pd.DataFrame(trial("ga[survivors=5]", 0, [3, 4, 6]) + trial("ga[survivors=5]", 1, [0, 7, 1])
+                            + trial("gda[published_reencoding=true]", 0, [1, 8, 1])
+                            + trial("gda[published_reencoding=true]", 1, [9, 9]))  # seed 1 still running
+    done = hooks.finished(variants)
+    assert sorted(set(zip(done["designer"], done["seed"]))) == [
+        ("ga[survivors=5]", 0), ("ga[survivors=5]", 1), ("gda[published_reencoding=true]", 0)]
+
+    mixed = hooks.with_variants(main, done)
+    assert sorted(set(mixed["designer"])) == ["cppn", "ga", "gda"]
+    assert mixed.loc[mixed["designer"] == "ga", "reward"].max() == 7  # the variant's, not the walker run's 5
+    assert (mixed.loc[mixed["designer"] == "gda", "seed"] == 0).all()  # walker's gda is replaced on every seed
+
+    table = hooks.variants_table(main, done).splitlines()
+    assert table[0] == "| seed | ga | ga[survivors=5] | gda | gda[published_reencoding=true] |"
+    assert table[2:] == ["| 0 | 3.00 | 6.00 | 2.00 | 8.00 |", "| 1 | 5.00 | 7.00 | 4.00 |  |",
+                         "| median | 4.00 | 6.50 | 2.00 | 8.00 |"]
+
+
 def test_the_walker_pages_transfer_check_is_of_the_committed_runs_best_bodies():
     """transfer.csv holds finished trials' best bodies with their reward on walker as committed; the page shows
     each of its rows, and ranks the designers by their mean in each simulator as a fresh count does."""

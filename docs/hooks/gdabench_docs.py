@@ -14,6 +14,9 @@ Generated so that they cannot drift from the code or the committed data:
   thesis's figure 5.2 describes its best robots so), from ``results/reference/walker/evaluations.parquet``;
 * ``<!-- gdabench:walker-claims -->`` becomes the thesis's statements about its figure 5.1, each checked on every
   seed of the walker reference run;
+* ``<!-- gdabench:thesis-walker RUN -->`` and ``<!-- gdabench:walker-claims RUN -->`` the same of the run of the
+  thesis's own variants in ``results/reference/RUN/`` (with the walker run's designers it has no variant of),
+  and ``<!-- gdabench:walker-variants RUN -->`` each variant's best reward per seed beside its designer's;
 * ``<!-- gdabench:walker-transfer -->`` becomes the transfer check of that run's best bodies in Evolution
   Gym, from its ``transfer.csv``, summarised by ``benchmarks/walker_transfer.py``'s own functions;
 * ``<!-- gdabench:extras -->`` becomes the table of the optional extras in ``pyproject.toml``.
@@ -105,25 +108,26 @@ def reference_summary(root: Path, run: str = "simple") -> str:
     return "\n".join(table)
 
 
-def _read_walker(name: str, root: Path, reader: Any, **kwargs: Any) -> Any:
-    """A file of the committed walker reference run, read with ``reader``; a build error names it if it cannot be."""
-    path = root / PUBLISHED / "walker" / name
+def _read_walker(name: str, root: Path, reader: Any, run: str = "walker", **kwargs: Any) -> Any:
+    """A file of a committed walker reference run, read with ``reader``; a build error names it if it cannot be."""
+    path = root / PUBLISHED / run / name
     try:
         return reader(path, **kwargs)
     except OSError as exc:
-        raise PluginError(f"cannot read the walker reference run's {name} ({path}): {exc}") from exc
+        raise PluginError(f"cannot read the reference run {run}'s {name} ({path}): {exc}") from exc
 
 
-def thesis_walker(root: Path) -> str:
-    """Per designer and generation of the walker reference run: the population's best, mean and worst reward
-    (medians over seeds; the best also its range), beside the thesis's best where it gives one."""
+def thesis_walker(root: Path, run: str = "walker") -> str:
+    """Per designer and generation of a walker reference run: the population's best, mean and worst reward
+    (medians over seeds; the best also its range), beside the thesis's best where it gives one (a variant
+    such as ``ga[survivors=5]`` beside its designer's)."""
     import pandas as pd
 
-    frame = _read_walker("report/generations.csv", root, pd.read_csv)
+    frame = _read_walker("report/generations.csv", root, pd.read_csv, run)
     rows = ["| designer | generation | seeds | best: median [range] | mean | worst | thesis: best |",
             "|---|--:|--:|--:|--:|--:|--:|"]
     for (designer, generation), group in frame.groupby(["designer", "generation"], sort=False):
-        thesis = THESIS_WALKER_BEST.get(str(designer), {}).get(int(generation))
+        thesis = THESIS_WALKER_BEST.get(str(designer).split("[")[0], {}).get(int(generation))
         rows.append(
             f"| {designer} | {generation} | {len(group)} | {group['max'].median():.2f} "
             f"[{group['max'].min():.2f}, {group['max'].max():.2f}] | {group['mean'].median():.2f} "
@@ -213,11 +217,62 @@ def thesis_claims(evaluations: Any) -> list[dict[str, Any]]:
     return out
 
 
-def walker_claims(root: Path) -> str:
-    """:func:`thesis_claims` of the committed walker run's finished trials, as a table."""
+def with_variants(main: Any, variants: Any) -> Any:
+    """``main``'s rows with each designer that ``variants`` runs a variant of (``ga[survivors=5]`` of ``ga``)
+    replaced by the variant, under the designer's own name: the thesis's statements read on its variants."""
+    import pandas as pd
+
+    variants = variants.assign(designer=variants["designer_name"])
+    return pd.concat([main[~main["designer"].isin(set(variants["designer"]))], variants], ignore_index=True)
+
+
+def variants_table(main: Any, variants: Any) -> str:
+    """Per seed, each variant's best reward beside its designer's in ``main`` (the same seed), then the medians."""
+    import pandas as pd
+
+    best = pd.concat([main, variants]).groupby(["designer", "seed"])["reward"].max().unstack("designer")
+    pairs = variants[["designer_name", "designer"]].drop_duplicates().itertuples(index=False)
+    columns = [c for name, label in pairs for c in (name, label)]
+    best = best.reindex(index=sorted(set(variants["seed"])), columns=columns)
+    # each pair's medians over the seeds where both have run
+    medians = [best[list(pair)].dropna()[c].median() for pair in zip(columns[::2], columns[1::2]) for c in pair]
+    lines = ["| seed | " + " | ".join(columns) + " |", "|--:" + "|--:" * len(columns) + "|"]
+
+    def cell(value: float) -> str:
+        return "" if pd.isna(value) else f"{value:.2f}"
+
+    lines += [f"| {seed} | " + " | ".join(cell(v) for v in row) + " |" for seed, row in best.iterrows()]
+    lines.append("| median | " + " | ".join(cell(v) for v in medians) + " |")
+    return "\n".join(lines)
+
+
+def finished(rows: Any) -> Any:
+    """The rows of trials that have spent their budget (a run committed while it goes on has others)."""
+    spent = rows.groupby(["designer", "seed"])["n_evals"].transform("max") >= rows["budget"]
+    return rows[spent]
+
+
+def _claims_rows(root: Path, run: str) -> Any:
+    """The walker run's rows, or with ``run``'s variants in place of the designers they vary."""
     from gdabench.results import read_parquet
 
     rows = _read_walker("evaluations.parquet", root, read_parquet)
+    if run == "walker":
+        return rows
+    return with_variants(rows, finished(_read_walker("evaluations.parquet", root, read_parquet, run)))
+
+
+def walker_variants(root: Path, run: str) -> str:
+    """:func:`variants_table` of the committed run ``run`` against the walker run."""
+    from gdabench.results import read_parquet
+
+    main = _read_walker("evaluations.parquet", root, read_parquet)
+    return variants_table(main, finished(_read_walker("evaluations.parquet", root, read_parquet, run)))
+
+
+def walker_claims(root: Path, run: str = "walker") -> str:
+    """:func:`thesis_claims` of the committed walker run's finished trials (or with ``run``'s variants), as a table."""
+    rows = _claims_rows(root, run)
     lines = ["| the thesis (chapter 5.1) | its figures | checked here as | holds on | per seed |",
              "|---|---|---|---|---|"]
     for c in thesis_claims(rows):
@@ -346,13 +401,14 @@ def on_page_markdown(markdown: str, page: Any, config: Any, files: Files) -> str
     generators: dict[str, Any] = {
         "columns": columns_table,
         "reference-summary": lambda run=None: reference_summary(root, run or "simple"),
-        "thesis-walker": lambda: thesis_walker(root),
+        "thesis-walker": lambda run="walker": thesis_walker(root, run),
         "walker-bodies": lambda: walker_bodies(root),
         "walker-transfer": lambda: walker_transfer(root),
-        "walker-claims": lambda: walker_claims(root),
+        "walker-claims": lambda run="walker": walker_claims(root, run),
+        "walker-variants": lambda run="walker-thesis": walker_variants(root, run),
         "extras": lambda: extras_table(root),
     }
-    with_argument = {"reference-summary"}
+    with_argument = {"reference-summary", "thesis-walker", "walker-claims", "walker-variants"}
 
     def expand(match: re.Match[str]) -> str:
         name, argument = match.groups()
