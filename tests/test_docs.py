@@ -44,6 +44,7 @@ def test_readme_table_is_the_reference_runs():
 
 
 WALKER_RUN = ROOT / "results" / "reference" / "walker"
+WALKER_THESIS_RUN = ROOT / "results" / "reference" / "walker-thesis"
 
 
 def docs_hooks():
@@ -176,6 +177,33 @@ def test_the_thesis_variants_are_set_beside_their_designers_seed_by_seed():
     assert table[0] == "| seed | ga | ga[survivors=5] | gda | gda[published_reencoding=true] |"
     assert table[2:] == ["| 0 | 3.00 | 6.00 | 2.00 | 8.00 |", "| 1 | 5.00 | 7.00 | 4.00 |  |",
                          "| median | 4.00 | 6.50 | 2.00 | 8.00 |"]
+
+
+def test_the_committed_run_of_the_thesis_variants_is_walker_thesis_toml_beside_the_walker_run():
+    """The run of the thesis's variants is experiments/walker-thesis.toml's, at the walker run's controller,
+    population and budget, and the page shows the best reward of each of its finished trials."""
+    from gdabench.experiment_build import build_run
+    from gdabench.results import RunDirectory
+
+    hooks = docs_hooks()
+    page = (ROOT / "docs" / "benchmarks" / "reference-walker.md").read_text()
+    assert "<!-- gdabench:walker-variants walker-thesis -->" in page
+    assert "<!-- gdabench:walker-claims walker-thesis -->" in page
+    run = RunDirectory.open(WALKER_THESIS_RUN)
+    config, walker = run.meta["config"], RunDirectory.open(WALKER_RUN).meta["config"]
+    experiment = build_run({"config": ROOT / "experiments" / "walker-thesis.toml"}).experiment
+    assert [d["label"] for d in config["designers"]] == [d.label for d in experiment.designers]
+    assert config["seeds"] == list(experiment.seeds)
+    assert [config[k] for k in ("controller", "population", "budget")] == [
+        walker[k] for k in ("controller", "population", "budget")]
+
+    finished = hooks.finished(run.load_evaluations())
+    assert len(finished), "no finished trial committed"
+    table = hooks.walker_variants(ROOT, "walker-thesis").splitlines()
+    for (label, seed), trial in finished.groupby(["designer", "seed"]):
+        line = next(r for r in table if r.startswith(f"| {seed} | ")).strip("|").split("|")
+        column = table[0].strip("|").split("|").index(f" {label} ")
+        assert float(line[column]) == pytest.approx(trial["reward"].max(), abs=0.005), (label, seed)
 
 
 def test_the_walker_pages_transfer_check_is_of_the_committed_runs_best_bodies():
