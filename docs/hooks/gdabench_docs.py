@@ -14,9 +14,9 @@ Generated so that they cannot drift from the code or the committed data:
   thesis's figure 5.2 describes its best robots so), from ``results/reference/walker/evaluations.parquet``;
 * ``<!-- gdabench:walker-claims -->`` becomes the thesis's statements about its figure 5.1, each checked on every
   seed of the walker reference run;
-* ``<!-- gdabench:thesis-walker RUN -->`` and ``<!-- gdabench:walker-claims RUN -->`` the same of the run of the
-  thesis's own variants in ``results/reference/RUN/`` (with the walker run's designers it has no variant of),
-  and ``<!-- gdabench:walker-variants RUN -->`` each variant's best reward per seed beside its designer's;
+* ``<!-- gdabench:walker-claims RUN -->`` the same with the thesis's own variants of the run in
+  ``results/reference/RUN/`` in the places of their designers, and ``<!-- gdabench:walker-variants RUN -->``
+  each variant's best reward per seed beside its designer's;
 * ``<!-- gdabench:walker-transfer -->`` becomes the transfer check of that run's best bodies in Evolution
   Gym, from its ``transfer.csv``, summarised by ``benchmarks/walker_transfer.py``'s own functions;
 * ``<!-- gdabench:extras -->`` becomes the table of the optional extras in ``pyproject.toml``.
@@ -117,17 +117,16 @@ def _read_walker(name: str, root: Path, reader: Any, run: str = "walker", **kwar
         raise PluginError(f"cannot read the reference run {run}'s {name} ({path}): {exc}") from exc
 
 
-def thesis_walker(root: Path, run: str = "walker") -> str:
-    """Per designer and generation of a walker reference run: the population's best, mean and worst reward
-    (medians over seeds; the best also its range), beside the thesis's best where it gives one (a variant
-    such as ``ga[survivors=5]`` beside its designer's)."""
+def thesis_walker(root: Path) -> str:
+    """Per designer and generation of the walker reference run: the population's best, mean and worst reward
+    (medians over seeds; the best also its range), beside the thesis's best where it gives one."""
     import pandas as pd
 
-    frame = _read_walker("report/generations.csv", root, pd.read_csv, run)
+    frame = _read_walker("report/generations.csv", root, pd.read_csv)
     rows = ["| designer | generation | seeds | best: median [range] | mean | worst | thesis: best |",
             "|---|--:|--:|--:|--:|--:|--:|"]
     for (designer, generation), group in frame.groupby(["designer", "generation"], sort=False):
-        thesis = THESIS_WALKER_BEST.get(str(designer).split("[")[0], {}).get(int(generation))
+        thesis = THESIS_WALKER_BEST.get(str(designer), {}).get(int(generation))
         rows.append(
             f"| {designer} | {generation} | {len(group)} | {group['max'].median():.2f} "
             f"[{group['max'].min():.2f}, {group['max'].max():.2f}] | {group['mean'].median():.2f} "
@@ -252,27 +251,22 @@ def finished(rows: Any) -> Any:
     return rows[spent]
 
 
-def _claims_rows(root: Path, run: str) -> Any:
-    """The walker run's rows, or with ``run``'s variants in place of the designers they vary."""
+def _rows(root: Path, run: str = "walker") -> Any:
+    """The committed rows of a walker reference run; of a variants run, only its finished trials'."""
     from gdabench.results import read_parquet
 
-    rows = _read_walker("evaluations.parquet", root, read_parquet)
-    if run == "walker":
-        return rows
-    return with_variants(rows, finished(_read_walker("evaluations.parquet", root, read_parquet, run)))
+    rows = _read_walker("evaluations.parquet", root, read_parquet, run)
+    return rows if run == "walker" else finished(rows)
 
 
 def walker_variants(root: Path, run: str) -> str:
     """:func:`variants_table` of the committed run ``run`` against the walker run."""
-    from gdabench.results import read_parquet
-
-    main = _read_walker("evaluations.parquet", root, read_parquet)
-    return variants_table(main, finished(_read_walker("evaluations.parquet", root, read_parquet, run)))
+    return variants_table(_rows(root), _rows(root, run))
 
 
 def walker_claims(root: Path, run: str = "walker") -> str:
     """:func:`thesis_claims` of the committed walker run's finished trials (or with ``run``'s variants), as a table."""
-    rows = _claims_rows(root, run)
+    rows = _rows(root) if run == "walker" else with_variants(_rows(root), _rows(root, run))
     lines = ["| the thesis (chapter 5.1) | its figures | checked here as | holds on | per seed |",
              "|---|---|---|---|---|"]
     for c in thesis_claims(rows):
@@ -401,14 +395,14 @@ def on_page_markdown(markdown: str, page: Any, config: Any, files: Files) -> str
     generators: dict[str, Any] = {
         "columns": columns_table,
         "reference-summary": lambda run=None: reference_summary(root, run or "simple"),
-        "thesis-walker": lambda run="walker": thesis_walker(root, run),
+        "thesis-walker": lambda: thesis_walker(root),
         "walker-bodies": lambda: walker_bodies(root),
         "walker-transfer": lambda: walker_transfer(root),
         "walker-claims": lambda run="walker": walker_claims(root, run),
         "walker-variants": lambda run="walker-thesis": walker_variants(root, run),
         "extras": lambda: extras_table(root),
     }
-    with_argument = {"reference-summary", "thesis-walker", "walker-claims", "walker-variants"}
+    with_argument = {"reference-summary", "walker-claims", "walker-variants"}
 
     def expand(match: re.Match[str]) -> str:
         name, argument = match.groups()
