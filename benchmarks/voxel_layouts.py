@@ -92,6 +92,23 @@ def soa(calls, x, v, ea, rest, k, inc, sign, ne, n, d, fe, out):
                 out[b, 1, i] = out[b, 1, i] + v[b, 1, i] * -DRAG + 1.0 * -GRAVITY
 
 
+@numba.njit(cache=False, error_model="numpy", boundscheck=False, inline="always")
+def _zero(n, ax, ay):
+    for i in range(n):
+        for w in range(ax.shape[1]):
+            ax[i, w] = 0.0
+            ay[i, w] = 0.0
+
+
+@numba.njit(cache=False, error_model="numpy", boundscheck=False, inline="always")
+def _drag_gravity(n, vx, vy, ax, ay):
+    """The lanes layouts' last pass: drag and gravity added to the springs' sums."""
+    for i in range(n):
+        for w in range(ax.shape[1]):
+            ax[i, w] = ax[i, w] + vx[i, w] * -DRAG
+            ay[i, w] = ay[i, w] + vy[i, w] * -DRAG + 1.0 * -GRAVITY
+
+
 @_nj
 def lanes(calls, x, y, vx, vy, ea, eb, rest, k, inc, sign, ne, n, fx, fy, ax, ay):
     """Per-lane index tables ``(…, lanes)``: every environment its own body."""
@@ -104,19 +121,13 @@ def lanes(calls, x, y, vx, vy, ea, eb, rest, k, inc, sign, ne, n, fx, fy, ax, ay
                 mag = (dist - rest[j, w]) * k[j, w] / dist
                 fx[j, w] = dx * mag
                 fy[j, w] = dy * mag
-        for i in range(n):
-            for w in range(x.shape[1]):
-                ax[i, w] = 0.0
-                ay[i, w] = 0.0
+        _zero(n, ax, ay)
         for m in range(inc.shape[0]):
             for i in range(n):
                 for w in range(x.shape[1]):
                     ax[i, w] = ax[i, w] + sign[m, i, w] * fx[inc[m, i, w], w]
                     ay[i, w] = ay[i, w] + sign[m, i, w] * fy[inc[m, i, w], w]
-        for i in range(n):
-            for w in range(x.shape[1]):
-                ax[i, w] = ax[i, w] + vx[i, w] * -DRAG
-                ay[i, w] = ay[i, w] + vy[i, w] * -DRAG + 1.0 * -GRAVITY
+        _drag_gravity(n, vx, vy, ax, ay)
 
 
 @_nj
@@ -133,10 +144,7 @@ def lanes_shared(calls, x, y, vx, vy, ea, eb, rest, k, inc, sign, ne, n, fx, fy,
                 mag = (dist - rest[j, w]) * k[j, w] / dist
                 fx[j, w] = dx * mag
                 fy[j, w] = dy * mag
-        for i in range(n):
-            for w in range(x.shape[1]):
-                ax[i, w] = 0.0
-                ay[i, w] = 0.0
+        _zero(n, ax, ay)
         for m in range(inc.shape[0]):
             for i in range(n):
                 e = inc[m, i]
@@ -144,10 +152,7 @@ def lanes_shared(calls, x, y, vx, vy, ea, eb, rest, k, inc, sign, ne, n, fx, fy,
                 for w in range(x.shape[1]):
                     ax[i, w] = ax[i, w] + s * fx[e, w]
                     ay[i, w] = ay[i, w] + s * fy[e, w]
-        for i in range(n):
-            for w in range(x.shape[1]):
-                ax[i, w] = ax[i, w] + vx[i, w] * -DRAG
-                ay[i, w] = ay[i, w] + vy[i, w] * -DRAG + 1.0 * -GRAVITY
+        _drag_gravity(n, vx, vy, ax, ay)
 
 
 def walked(seed: int, same: bool, lanes: int):
@@ -203,15 +208,18 @@ def layouts(tables, state) -> dict[str, tuple]:
     ax, ay = np.zeros((P, B)), np.zeros((P, B))
     common = (lx, ly, lvx, lvy)
     temps = (np.zeros((E + 1, B)), np.zeros((E + 1, B)), ax, ay)
+
+    def lanes_out() -> np.ndarray:
+        return np.stack([ax.T, ay.T], axis=2)
+
     if np.all(tables.edges == tables.edges[0]):
         result["lanes, one body"] = (lanes_shared, (*common, ea[:, 0].copy(), eb[:, 0].copy(), lrest, lk, incs[0][0],
-                                                    incs[0][1], int(ne.max()), int(n.max()), *temps),
-                                     lambda: np.stack([ax.T, ay.T], axis=2))
+                                                    incs[0][1], int(ne.max()), int(n.max()), *temps), lanes_out)
     else:
         inc = np.stack([i for i, _ in incs], axis=2)
         sign = np.stack([s for _, s in incs], axis=2)
         result["lanes, different bodies"] = (lanes, (*common, ea, eb, lrest, lk, inc, sign, int(ne.max()), int(n.max()),
-                                                     *temps), lambda: np.stack([ax.T, ay.T], axis=2))
+                                                     *temps), lanes_out)
     return result
 
 
