@@ -36,13 +36,14 @@ def run_arm(arm: str, names: list[str], timesteps: int, minutes: float) -> dict[
     from gdabench.controllers.ppo.train import train
     from gdabench.envs.batched import ArrayBodies
     from gdabench.envs.voxel import engine
-    from gdabench.envs.voxel.walker import MAX_EPISODE_STEPS, WalkerBatch
+    from gdabench.envs.voxel import MAX_EPISODE_STEPS
+    from gdabench.envs.voxel.batch import TaskBatch
 
     device, schedule = arm.split(":")
     pad = engine.body_tables(["44444/44444/44444/44444/44444"])
 
     def make(n: int) -> ArrayBodies:
-        return ArrayBodies(WalkerBatch(names, n, pad=pad), n, MAX_EPISODE_STEPS)
+        return ArrayBodies(TaskBatch("Walker-v0", names, n, pad=pad), n, MAX_EPISODE_STEPS)
 
     marks: list[tuple[float, int]] = []
     start = time.perf_counter()

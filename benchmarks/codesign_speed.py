@@ -65,12 +65,12 @@ def run_lockstep(names: list[str], timesteps: int, seed: int) -> dict[str, Any]:
     from gdabench.envs.batched import ArrayBodies
     from gdabench.controllers.ppo.train import train
     from gdabench.envs.voxel import engine
-    from gdabench.envs.voxel.walker import WalkerBatch
+    from gdabench.envs.voxel.batch import TaskBatch
 
     pad = engine.body_tables(["44444/44444/44444/44444/44444"])
 
     def make(n: int) -> ArrayBodies:
-        return ArrayBodies(WalkerBatch(names, n, pad=pad), n, 500)
+        return ArrayBodies(TaskBatch("Walker-v0", names, n, pad=pad), n, 500)
 
     train(PPOConfig(timesteps=128, eval_interval=10**9), make, [0] * len(names))  # compile the kernels first
     config = PPOConfig(timesteps=timesteps, eval_interval=10**9, **SETTINGS)

@@ -2,6 +2,13 @@
 
     bash plugins/gdabench-evogym/install.sh /tmp/venv-evogym
     /tmp/venv-evogym/bin/python benchmarks/evogym_record.py tests/fixtures/voxel_parity.npz
+    /tmp/venv-evogym/bin/python benchmarks/evogym_record.py tests/fixtures/task_parity.npz --tasks [TASK ...]
+
+``--tasks``: for every task of Evolution Gym 2.0 and each of :data:`TASK_BODIES`, one episode's first
+:data:`TASK_STEPS` steps of the task's own Gymnasium environment under a fixed gait: the raw point positions
+of every object at the start and of every object that can move after each step, the observations, rewards
+and ``done`` flags, and the random set-up where the task draws one (Catcher-v0's offsets,
+BidirectionalWalker-v0's goals), drawn from Python's ``random`` seeded with 0.
 
 Each case is a body placed in Walker-v0's world (a row of 100 fixed voxels) at a voxel position,
 driven by a deterministic action sequence; the file holds, per case, the raw simulator positions
@@ -72,19 +79,92 @@ def record(name: str) -> dict[str, np.ndarray]:
             f"{name}.unstable": np.array(unstable)}
 
 
+#: two 5x5 bodies every task can take: a walker with legs, and one of Evolution Gym's random samples
+TASK_BODIES = ("11111/13331/40004/40004/40004", "32423/22443/04213/01412/31233")
+TASK_STEPS = 20
+
+
+def gait(t: int, n: int) -> np.ndarray:
+    """The fixed gait of the task recordings: a wave along the actuators with a slow beat."""
+    k = np.arange(n)
+    return np.clip(1.1 + 0.45 * np.sin(2 * math.pi * t / 16 + 1.3 * k) * np.cos(2 * math.pi * t / 90), 0.6, 1.6)
+
+
+def record_task(task: str, index: int, steps: int) -> dict[str, np.ndarray]:
+    import random
+
+    import gymnasium
+    from evogym.simulator_cpp import Sim
+
+    with contextlib.redirect_stdout(io.StringIO()):
+        import evogym.envs  # noqa: F401 - registers the tasks
+    body_text = TASK_BODIES[index]
+    body = np.array([[int(c) for c in r] for r in body_text.split("/")])
+    random.seed(0)
+    with contextlib.redirect_stdout(io.StringIO()):
+        env = gymnasium.make(task, body=body)
+        obs0, _ = env.reset(seed=0)
+    raw = env.unwrapped
+    sim = raw.sim
+    names = sorted(raw.world.objects)
+    moving = [name for name in names if np.any((raw.world.objects[name].grid != 0) & (raw.world.objects[name].grid != 5))]
+    key = f"{task}/{index}"
+    out = {f"{key}/body": np.array(body_text), f"{key}/obs0": np.asarray(obs0, dtype=np.float64),
+           f"{key}/moving": np.array(moving)}
+    for name in names:
+        out[f"{key}/pos0/{name}"] = Sim.object_pos_at_time(sim, sim.get_time(), name).T.copy()
+    if hasattr(raw, "offsetx"):
+        out[f"{key}/offset"] = np.array([raw.offsetx, raw.offsety])
+    if hasattr(raw, "goals"):
+        out[f"{key}/goals"] = np.array([g.x_goal for g in raw.goals])
+    n = raw.get_actuator_indices("robot").size
+    obs, rewards, done, actions = [], [], [], []
+    pos: dict[str, list[np.ndarray]] = {name: [] for name in moving}
+    for t in range(steps):
+        actions.append(gait(t, n))
+        with contextlib.redirect_stdout(io.StringIO()):
+            o, r, terminated, truncated, _ = env.step(actions[-1])
+        obs.append(np.asarray(o, dtype=np.float64))
+        rewards.append(float(r))
+        done.append(bool(terminated))
+        for name in moving:
+            pos[name].append(Sim.object_pos_at_time(sim, sim.get_time(), name).T.copy())
+        if terminated or truncated:
+            break
+    out.update({f"{key}/actions": np.array(actions), f"{key}/obs": np.array(obs), f"{key}/reward": np.array(rewards),
+                f"{key}/done": np.array(done)})
+    for name in moving:
+        out[f"{key}/pos/{name}"] = np.array(pos[name])
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("path", type=Path, help="the .npz file to write (tests/fixtures/voxel_parity.npz)")
+    parser.add_argument("--tasks", nargs="*", metavar="TASK", default=None,
+                        help="record Evolution Gym's tasks (all, or those named) instead of the walker cases")
+    parser.add_argument("--steps", type=int, default=TASK_STEPS, help="env steps per task recording")
     args = parser.parse_args()
     try:
         data = {}
-        for name in CASES:
-            data.update(record(name))
+        if args.tasks is None:
+            for name in CASES:
+                data.update(record(name))
+            names = list(CASES)
+        else:
+            import evogym
+
+            names = args.tasks or list(evogym.BASELINE_ENV_NAMES)
+            if args.path.exists():  # keep the other tasks' recordings
+                data.update({k: v for k, v in np.load(args.path).items() if k.split("/")[0] not in names})
+            for task in names:
+                for index in range(len(TASK_BODIES)):
+                    data.update(record_task(task, index, args.steps))
     except ImportError as exc:
         print(f"error: Evolution Gym is not installed ({exc}); run this in plugins/gdabench-evogym's venv", file=sys.stderr)
         raise SystemExit(2) from None
     np.savez_compressed(args.path, **data)
-    print(f"wrote {args.path}: {', '.join(CASES)}")
+    print(f"wrote {args.path}: {', '.join(names)}")
 
 
 if __name__ == "__main__":

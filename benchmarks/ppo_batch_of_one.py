@@ -47,7 +47,8 @@ def run_lockstep(pairs: list[tuple[str, int]], timesteps: int) -> list[list[floa
     from gdabench.controllers.ppo import PPOConfig
     from gdabench.controllers.ppo.train import train
     from gdabench.envs.voxel import engine
-    from gdabench.envs.voxel.walker import MAX_EPISODE_STEPS, WalkerBatch
+    from gdabench.envs.voxel import MAX_EPISODE_STEPS
+    from gdabench.envs.voxel.batch import TaskBatch
     from gdabench.envs.batched import ArrayBodies
 
     torch.set_num_threads(1)
@@ -55,7 +56,7 @@ def run_lockstep(pairs: list[tuple[str, int]], timesteps: int) -> list[list[floa
     names = [body for body, _ in pairs]
     results = train(
         PPOConfig(timesteps=timesteps),
-        lambda n: ArrayBodies(WalkerBatch(names, n, pad=pad), n, MAX_EPISODE_STEPS),
+        lambda n: ArrayBodies(TaskBatch("Walker-v0", names, n, pad=pad), n, MAX_EPISODE_STEPS),
         [seed for _, seed in pairs],
         pad=(2 + 2 * 36, 25),
     )

@@ -32,13 +32,14 @@ def train_schedule(names: list[str], seeds: list[int], timesteps: int, schedule:
     from gdabench.controllers.ppo.train import train
     from gdabench.envs.batched import ArrayBodies
     from gdabench.envs.voxel import engine
-    from gdabench.envs.voxel.walker import MAX_EPISODE_STEPS, WalkerBatch
+    from gdabench.envs.voxel import MAX_EPISODE_STEPS
+    from gdabench.envs.voxel.batch import TaskBatch
 
     torch.set_num_threads(1)
     pad = engine.body_tables(["44444/44444/44444/44444/44444"])
     results = train(
         PPOConfig(timesteps=timesteps, **schedule),
-        lambda n: ArrayBodies(WalkerBatch(names, n, pad=pad), n, MAX_EPISODE_STEPS),
+        lambda n: ArrayBodies(TaskBatch("Walker-v0", names, n, pad=pad), n, MAX_EPISODE_STEPS),
         seeds,
         pad=(2 + 2 * 36, 25),
     )

@@ -52,11 +52,11 @@ def cpu_backend() -> Any:
     """The GPU module's interface on the CPU engine (``--dry-run``)."""
 
     def step(dev: Any, state: engine.State, acts: Any, active: Any = None) -> tuple:
-        new, out = engine.step(dev.tables, dev.terrain, state, acts, active)
+        new, out = engine.step(dev.tables, state, acts, active)
         return new, out
 
     return SimpleNamespace(
-        to_device=lambda tables, terrain: SimpleNamespace(tables=tables, terrain=terrain),
+        to_device=lambda tables: SimpleNamespace(tables=tables),
         reset=lambda dev, body: engine.reset(dev.tables, body), step=step, host=np.asarray, put=lambda x: x,
         synchronize=lambda: None, memory=lambda: 0, name="cpu (dry run)",
     )
@@ -82,20 +82,24 @@ def agreement(backend: Any, bodies: list[gdabench.Body], tables: engine.BodyTabl
     """Bodies ``0..count-1`` of ``tables`` (padded as the speed batches are: one kernel serves both)."""
     index = np.arange(count)
     cpu_state = engine.reset(tables, index)
-    dev = backend.to_device(tables, engine.WALKER_TERRAIN)
+    dev = backend.to_device(tables)
     gpu_state = backend.reset(dev, index)
-    alone_dev = backend.to_device(engine.body_tables(bodies[:1], pad=tables), engine.WALKER_TERRAIN)
+    alone_dev = backend.to_device(engine.body_tables(bodies[:1], pad=tables))
     alone = backend.reset(alone_dev, np.array([0]))
     gaps, reward_cpu, reward_gpu = {}, np.zeros(count), np.zeros(count)
     unstable_cpu, unstable_gpu, alone_same = np.zeros(count, int), np.zeros(count, int), True
     start = time.perf_counter()
+    def com_x(pos: np.ndarray) -> np.ndarray:  # Walker-v0's reward is this x's gain (robot points: from 0)
+        return np.array([pos[i, : tables.n_robot_points[i], 0].mean() for i in range(count)])
+
     for t in range(1, steps + 1):
         a = actions(t, count, tables.max_actuators)
-        cpu_state, out_c = engine.step(tables, engine.WALKER_TERRAIN, cpu_state, a)
+        before_cpu, before_gpu = com_x(cpu_state.pos), com_x(backend.host(gpu_state.pos))
+        cpu_state, out_c = engine.step(tables, cpu_state, a)
         gpu_state, out_g = backend.step(dev, gpu_state, a)
         alone, out_a = backend.step(alone_dev, alone, a[:1])
-        reward_cpu += out_c.dx
-        reward_gpu += backend.host(out_g.dx)
+        reward_cpu += com_x(cpu_state.pos) - before_cpu
+        reward_gpu += com_x(backend.host(gpu_state.pos)) - before_gpu
         unstable_cpu += out_c.unstable
         unstable_gpu += backend.host(out_g.unstable)
         if t in (1, 10, 100, steps):
@@ -123,7 +127,7 @@ def rate(backend: Any, tables: engine.BodyTables, batch: int, seconds: float, re
     """Env steps/s of ``batch`` environments: ``group`` neighbouring environments share a body (1: every
     neighbour differs, the worst case for a GPU warp), the bodies cycled."""
     index = np.arange(batch) // group % len(tables.objects)
-    dev = backend.to_device(tables, engine.WALKER_TERRAIN)
+    dev = backend.to_device(tables)
     state = backend.reset(dev, index)
     acts = [backend.put(actions(t, batch, tables.max_actuators)) for t in range(20)]  # on the device beforehand
     first = time.perf_counter()

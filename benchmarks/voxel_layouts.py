@@ -163,7 +163,7 @@ def walked(seed: int, same: bool, lanes: int):
     state = engine.reset(tables, np.arange(lanes))
     for t in range(60):
         act = 1.1 + 0.5 * np.sin(2 * math.pi * t / 20 + np.arange(tables.max_actuators))
-        state, _ = engine.step(tables, engine.WALKER_TERRAIN, state, np.tile(act, (lanes, 1)))
+        state, _ = engine.step(tables, state, np.tile(act, (lanes, 1)))
     return tables, state
 
 

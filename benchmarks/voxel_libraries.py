@@ -605,7 +605,7 @@ class FullEngine:
         self.actions = np.full((batch, self.tables.max_actuators), ACTION)
 
     def step(self):
-        self.state, _ = engine.step(self.tables, engine.WALKER_TERRAIN, self.state, self.actions)
+        self.state, _ = engine.step(self.tables, self.state, self.actions)
 
     def positions(self) -> np.ndarray:
         return self.state.pos.copy()

@@ -43,13 +43,13 @@ def time_batch(bodies: list[gdabench.Body], batch: int, seconds: float) -> tuple
     index = np.arange(batch) % len(bodies)
     state = engine.reset(tables, index)
     width = tables.max_actuators
-    state, out = engine.step(tables, engine.WALKER_TERRAIN, state, actions(0, batch, width))  # compile / warm
+    state, out = engine.step(tables, state, actions(0, batch, width))  # compile / warm
     steps, start = 0, time.perf_counter()
     while time.perf_counter() - start < seconds or steps < 3:
-        state, out = engine.step(tables, engine.WALKER_TERRAIN, state, actions(steps, batch, width))
+        state, out = engine.step(tables, state, actions(steps, batch, width))
         steps += 1
     rate = batch * steps / (time.perf_counter() - start)
-    used = sum(a.nbytes for a in (state.pos, state.vel, state.vtrue, out.obs))
+    used = sum(a.nbytes for a in (state.pos, state.vel, state.vtrue))
     used += sum(v.nbytes for k, v in vars(tables).items() if isinstance(v, np.ndarray)) * batch // len(bodies)
     return rate, used, int(out.unstable.sum())
 

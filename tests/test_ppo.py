@@ -27,7 +27,7 @@ from gdabench.controllers.ppo.policy_file import META_FILE, WEIGHTS_FILE
 from gdabench.controllers.ppo.train import train
 from gdabench.controllers.ppo.update import LockstepUpdate
 from gdabench.envs.voxel import engine
-from gdabench.envs.voxel.walker import WalkerBatch
+from gdabench.envs.voxel.batch import TaskBatch
 from gdabench.envs.walker.env import Walker, make_walker
 from gdabench.envs.walker.sim import WalkerPhysics
 from gdabench.errors import ConfigError
@@ -275,7 +275,7 @@ PAD_5X5 = (2 + 2 * 36, 25)
 def voxel(bodies):
     """A batch maker for bodies on the voxel walker, one array step for all (tables padded to 5x5)."""
     pad = engine.body_tables(["44444/44444/44444/44444/44444"])
-    return lambda n: ArrayBodies(WalkerBatch(bodies, n, pad=pad), n, 500)
+    return lambda n: ArrayBodies(TaskBatch("Walker-v0", bodies, n, pad=pad), n, 500)
 
 
 @pytest.mark.parametrize("schedule", [{}, {**EVOGYM1, "n_envs": 2}], ids=["evogym2", "evogym1"])

@@ -18,7 +18,7 @@ from gymnasium.utils.env_checker import check_env
 import gdabench
 from gdabench import ConfigError, make_env
 from gdabench.envs.voxel import engine
-from gdabench.envs.voxel.walker import WalkerBatch
+from gdabench.envs.voxel.batch import TaskBatch
 from gdabench.running.runner import compare as run_experiment
 
 FIXTURE = Path(__file__).parent / "fixtures" / "voxel_parity.npz"
@@ -31,13 +31,14 @@ MIXED = ["11111/13331/40004/40004/40004", "33333/33333/33333/33333/33333", "4444
 def replay(name: str, steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
     data = np.load(FIXTURE)
     grid = np.array([[int(c) for c in row] for row in str(data[f"{name}.body"]).split("/")])
-    tables = engine.body_tables([grid], at=tuple(int(v) for v in data[f"{name}.at"]))
+    at = tuple(int(v) for v in data[f"{name}.at"])
+    tables = engine.body_tables([grid], dataclasses.replace(engine.WALKER_WORLD, robot_at=at))
     state = engine.reset(tables, np.array([0]))
     n = int(tables.n_points[0])
     assert np.array_equal(state.pos[0, :n], data[f"{name}.pos0"])  # same points, same order, same places
     pos, vel, unstable = [], [], []
     for action in data[f"{name}.actions"][:steps]:
-        state, out = engine.step(tables, engine.WALKER_TERRAIN, state, action[None])
+        state, out = engine.step(tables, state, action[None])
         pos.append(state.pos[0, :n].copy())
         vel.append(state.vel[0, :n].copy())
         unstable.append(bool(out.unstable[0]))
@@ -73,7 +74,7 @@ def trajectories(tables: engine.BodyTables, body: np.ndarray, steps: int = 30) -
     for _ in range(steps):
         actions = others.uniform(0.6, 1.6, size=(len(body), tables.max_actuators))
         actions[0, : tables.n_act[0]] = ours.uniform(0.6, 1.6, size=tables.n_act[0])  # the same in every batch
-        state, _ = engine.step(tables, engine.WALKER_TERRAIN, state, actions)
+        state, _ = engine.step(tables, state, actions)
         out.append(state.pos.copy())
     return np.array(out)
 
@@ -109,7 +110,7 @@ def test_step_is_pure():
     tables = engine.body_tables([WALKER])
     state = engine.reset(tables, np.array([0, 0]))
     before = state.pos.copy()
-    new, _ = engine.step(tables, engine.WALKER_TERRAIN, state, np.full((2, tables.max_actuators), 1.6))
+    new, _ = engine.step(tables, state, np.full((2, tables.max_actuators), 1.6))
     assert np.array_equal(state.pos, before) and not np.array_equal(new.pos, before)
 
 
@@ -117,7 +118,7 @@ def test_walker_v2_passes_gymnasiums_checker_and_plays_an_episode():
     env = gymnasium.make("gdabench/Walker-v2", body=WALKER)
     check_env(env.unwrapped, skip_render_check=True)
     obs, _ = env.reset()
-    n_points = len(env.unwrapped.batch.tables.objects[0].pos)
+    n_points = len(env.unwrapped.batch.tables.robots[0].pos)
     assert obs.shape == (2 + 2 * n_points,) and env.action_space.shape == (9,)
     steps, done = 0, False
     while not done:
@@ -145,9 +146,9 @@ def test_the_vector_entry_point_steps_many_environments_of_one_body_in_one_call(
 
 
 def test_a_batch_of_bodies_reports_each_bodys_own_observation_and_reward():
-    batch = WalkerBatch(MIXED[:2], envs_per_body=2)
+    batch = TaskBatch("Walker-v0", MIXED[:2], envs_per_body=2)
     obs = batch.reset()
-    sizes = [batch.tables.obs_size(b) for b in range(2)]
+    sizes = batch.obs_sizes
     assert obs.shape == (4, 2 + 2 * batch.tables.max_points)
     assert np.all(obs[0, sizes[0]:] == 0) and obs.shape[1] == sizes[1]
     obs, reward, terminated, unstable = batch.step(np.ones((4, batch.tables.max_actuators)))

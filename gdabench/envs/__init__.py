@@ -4,6 +4,10 @@ from __future__ import annotations
 
 from ..hookspecs import hookimpl
 from ..specs import EnvironmentSpec, SuiteSpec
+from .tasks.catalog import ENTRIES
+
+#: Evolution Gym's grades, in the order suites list them
+GRADES = ("easy", "medium", "hard")
 
 
 @hookimpl
@@ -17,9 +21,20 @@ def gdabench_environments() -> list[EnvironmentSpec]:
         EnvironmentSpec(
             name="walker",
             factory="gdabench.envs.walker.env:Walker",
-            description="Evolution Gym's Walker-v0 on its own physics, batched (gdabench/Walker-v2; "
+            description="Evolution Gym's Walker-v0 [easy] on its own physics, batched (voxel/Walker-v0; "
                         "engine=pymunk: gdabench/Walker-v1); needs a controller",
             requires_controller=True,
+        ),
+        *(
+            EnvironmentSpec(
+                name=f"voxel/{entry.id}",
+                factory="gdabench.envs.voxel.env:VoxelTask",
+                description=f"Evolution Gym's {entry.id} [{entry.difficulty}] on the voxel engine: {entry.summary}; "
+                            "needs a controller",
+                defaults={"task": entry.id},
+                requires_controller=True,
+            )
+            for entry in ENTRIES
         ),
         EnvironmentSpec(
             name="two-peaks",
@@ -54,5 +69,20 @@ def gdabench_suites() -> list[SuiteSpec]:
             envs=("walker",),
             controller="ppo",
             description="Co-design on physics: Walker with PPO learning each body's controller (thesis section 5.1)",
+        ),
+        SuiteSpec(
+            name="evogym",
+            envs=tuple(f"voxel/{entry.id}" for entry in ENTRIES),
+            controller="ppo",
+            description="Evolution Gym's 32 tasks on the voxel engine, PPO learning each body's controller",
+        ),
+        *(
+            SuiteSpec(
+                name=f"evogym-{grade}",
+                envs=tuple(f"voxel/{entry.id}" for entry in ENTRIES if entry.difficulty == grade),
+                controller="ppo",
+                description=f"Evolution Gym's {grade} tasks on the voxel engine, with PPO",
+            )
+            for grade in GRADES
         ),
     ]

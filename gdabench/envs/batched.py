@@ -12,7 +12,7 @@ Two kinds:
 * :class:`GymBodies`: Gymnasium environments, one per body and environment, stepped in turn (any
   environment with flat Box spaces: the pymunk walker, Evolution Gym, a plugin's);
 * :class:`ArrayBodies`: an array simulator that steps every environment in one call (the voxel
-  engine's :class:`~gdabench.envs.voxel.walker.WalkerBatch`), with the episode's time limit and
+  engine's :class:`~gdabench.envs.voxel.batch.TaskBatch`), with the episode's time limit and
   resets added here.
 """
 
@@ -148,7 +148,7 @@ class GymBodies:
 
 
 class ArraySimulator(Protocol):
-    """What :class:`ArrayBodies` needs of an array simulator (see :class:`~gdabench.envs.voxel.walker.WalkerBatch`)."""
+    """What :class:`ArrayBodies` needs of an array simulator (see :class:`~gdabench.envs.voxel.batch.TaskBatch`)."""
 
     @property
     def done(self) -> np.ndarray: ...
@@ -161,6 +161,8 @@ class ArraySimulator(Protocol):
 
     @property
     def action_bounds(self) -> tuple[float, float]: ...
+
+    def seed(self, seeds: Sequence[int | None]) -> None: ...
 
     def reset(self, mask: np.ndarray | None = None) -> np.ndarray: ...
 
@@ -179,7 +181,9 @@ class ArrayBodies:
         self._t = np.zeros(len(simulator.done), dtype=np.int64)
 
     def seed(self, seeds: Sequence[int]) -> None:
-        """Nothing to seed: the simulation is deterministic."""
+        """Environment ``e`` of body ``b`` draws its tasks' set-ups from ``seeds[b] + e`` (as :class:`GymBodies`)."""
+        n = self.envs_per_body
+        self.simulator.seed([int(seeds[i // n]) + i % n for i in range(len(self._t))])
 
     def reset(self) -> np.ndarray:
         self._t[:] = 0

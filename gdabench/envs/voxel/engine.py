@@ -1,56 +1,190 @@
-"""Batched Evolution Gym physics: static body tables, state as arrays, a pure step function.
+"""Batched Evolution Gym physics: a world, static tables of its bodies, state as arrays, a pure step function.
 
-    tables = body_tables([body_a, body_b])              # padded to the larger body
-    state = reset(tables, body=np.array([0, 0, 1]))     # three environments: two of a, one of b
-    state, out = step(tables, WALKER_TERRAIN, state, actions)
+    world = engine.world({"ground": (grid, (0, 0)), "package": (box, (3, 6))}, robot_at=(1, 1))
+    tables = engine.body_tables([body_a, body_b], world)   # padded to the larger body
+    state = engine.reset(tables, body=np.array([0, 0, 1])) # three environments: two of a, one of b
+    state, out = engine.step(tables, state, actions)
 
-``step`` never changes its inputs: it returns a new :class:`State` and a :class:`StepOutput`
-(observations, centre-of-mass gains, instability flags).  Bodies are padded to the batch's largest
+A **world** is what Evolution Gym builds from a task's sim file: named objects of any voxel types, and
+the place where the robot is added.  Objects made only of fixed voxels never move, so they become one
+static collider (exactly equivalent: forces on fixed points are discarded); every other object (a
+package, a beam, a bridge of soft cells between fixed ones) is simulated in every environment, its
+fixed points pinned as Evolution Gym pins them.  Each environment's points are the moving objects'
+(in the world's order) followed by its robot's, so an object's points sit at the same indices in
+every environment and the robot's start at ``tables.robot_start``.
+
+``step`` never changes its inputs: it returns a new :class:`State` and a :class:`StepOutput` (which
+environments became unstable).  The engine knows no task: observations and rewards are computed from
+the state by the task layer (:mod:`gdabench.envs.tasks`).  Bodies are padded to the batch's largest
 (or to ``pad``); padding is never simulated, so a body's trajectory does not depend on its batch.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 import numba
 import numpy as np
 
 from ...body import Body, as_body
 from . import kernels
-from .model import FIXED, H_ACT, RIGID, V_ACT, Object, build_object
+from .model import CELL, FIXED, H_ACT, RIGID, V_ACT, Object, build_object
 
 #: where Walker-v0 places the robot (voxels): x 1, bottom at y 1
 ROBOT_AT = (1, 1)
 #: smaller batches step on the calling thread: waking threads costs more than they save
 PARALLEL_FROM = 8
 
+#: pair kinds (column 2 of ``pairs``): the robot's non-adjacent and adjacent boxels, two boxels of one other
+#: object, boxels of two different objects; Evolution Gym meets a pair within one object twice
+ROBOT_APART, ROBOT_ADJACENT, SAME_OBJECT, TWO_OBJECTS = 0, 1, 2, 3
+
+
+@dataclass(frozen=True)
+class Terrain:
+    """Static colliders: their surface boxels, with a lookup by 0.1-wide column and row."""
+
+    pos: np.ndarray
+    edges: np.ndarray
+    edge_surface: np.ndarray
+    boxel_points: np.ndarray
+    boxel_edges: np.ndarray
+    bbox: np.ndarray
+    bin_start: np.ndarray  # ((columns * rows) + 1,): where each (column, row) bin's run in bin_boxel starts
+    bin_boxel: np.ndarray
+    rows: np.ndarray  # (1,): the number of rows of bins
+    zero: np.ndarray  # the terrain's (zero) velocities, and a sink for forces on it
+
+    def arrays(self) -> tuple:
+        return (self.pos, self.edges, self.edge_surface, self.boxel_points, self.boxel_edges, self.bbox,
+                self.bin_start, self.bin_boxel, self.rows, self.zero)
+
+
+def terrain(objects: Sequence[Object]) -> Terrain:
+    """One static collider of fixed objects (their surface boxels, binned by the cell of their corner)."""
+    pos, edges, surf, points, boxel_edges = [], [], [], [], []
+    n_points = n_edges = 0
+    for obj in objects:
+        idx = np.flatnonzero(obj.boxel_surface)
+        pos.append(obj.pos)
+        edges.append(obj.edge_ab + n_points)
+        surf.append(obj.edge_surface)
+        points.append(obj.boxel_points[idx] + n_points)
+        boxel_edges.append(obj.boxel_edges[idx] + n_edges)
+        n_points += len(obj.pos)
+        n_edges += len(obj.edge_ab)
+    if not objects:  # no static object: one empty bin
+        i64 = np.zeros(0, dtype=np.int64)
+        return Terrain(pos=np.zeros((0, 2)), edges=np.zeros((0, 2), np.int64), edge_surface=np.zeros(0, np.bool_),
+                       boxel_points=np.zeros((0, 4), np.int64), boxel_edges=np.zeros((0, 4), np.int64),
+                       bbox=np.zeros((0, 4)), bin_start=np.zeros(2, np.int64), bin_boxel=i64,
+                       rows=np.ones(1, np.int64), zero=np.zeros((0, 2)))
+    all_pos = np.concatenate(pos)
+    boxel_points = np.concatenate(points)
+    corners = all_pos[boxel_points]  # (n, 4, 2)
+    bbox = np.concatenate([corners.min(axis=1), corners.max(axis=1)], axis=1)
+    col = np.floor(bbox[:, 0] / CELL + 0.5).astype(np.int64)
+    row = np.floor(bbox[:, 1] / CELL + 0.5).astype(np.int64)
+    n_rows = int(row.max()) + 1
+    key = col * n_rows + row
+    order = np.argsort(key, kind="stable")
+    n_bins = (int(col.max()) + 1) * n_rows
+    start = np.searchsorted(key[order], np.arange(n_bins + 1)).astype(np.int64)
+    return Terrain(
+        pos=all_pos, edges=np.concatenate(edges), edge_surface=np.concatenate(surf), boxel_points=boxel_points,
+        boxel_edges=np.concatenate(boxel_edges), bbox=bbox, bin_start=start, bin_boxel=order.astype(np.int64),
+        rows=np.array([n_rows], dtype=np.int64), zero=np.zeros_like(all_pos),
+    )
+
+
+@dataclass(frozen=True)
+class World:
+    """A task's world without its robot: the objects simulated in every environment, the static ones, and
+    where the robot goes.  ``moving`` objects are numbered as if created after the robot (never index 0)."""
+
+    names: tuple[str, ...]  # the moving objects' names, in order
+    moving: tuple[Object, ...]
+    static_names: tuple[str, ...]
+    static: tuple[Object, ...]
+    terrain: Terrain
+    robot_at: tuple[int, int]
+    grids: Mapping[str, np.ndarray]  # every object's cells (rows top to bottom), by name
+
+    @property
+    def point_starts(self) -> dict[str, int]:
+        """Where each moving object's points start in an environment's point arrays."""
+        starts, n = {}, 0
+        for name, obj in zip(self.names, self.moving):
+            starts[name] = n
+            n += len(obj.pos)
+        return starts
+
+    @property
+    def n_points(self) -> int:
+        return sum(len(obj.pos) for obj in self.moving)
+
+
+def world(objects: Mapping[str, tuple[np.ndarray, tuple[int, int]]], robot_at: tuple[int, int] = ROBOT_AT,
+          moving: Sequence[str] = ()) -> World:
+    """A world of named objects (cells with rows top to bottom, bottom-left voxel), in Evolution Gym's order
+    (by name).  Objects with any non-fixed voxel, and those named in ``moving`` (placed per environment),
+    are simulated; the rest are one static collider."""
+    names, built, static_names, static = [], [], [], []
+    grids = {}
+    for name in sorted(objects):
+        grid, at = objects[name]
+        grid = np.asarray(grid, dtype=np.int64)
+        grids[name] = grid
+        obj = build_object(grid, at, point_offset=1, edge_offset=1)
+        if name in moving or not np.all(grid[grid != 0] == FIXED):
+            names.append(name)
+            built.append(obj)
+        else:
+            static_names.append(name)
+            static.append(obj)
+    return World(names=tuple(names), moving=tuple(built), static_names=tuple(static_names), static=tuple(static),
+                 terrain=terrain(static), robot_at=robot_at, grids=grids)
+
+
+#: Walker-v0's world: a row of 100 fixed voxels, the robot at voxel (1, 1)
+WALKER_WORLD = world({"ground": (np.full((1, 100), FIXED), (0, 0))})
+
 
 @dataclass(frozen=True)
 class BodyTables:
-    """Every body of a batch as padded arrays (first axis: body), plus the unpadded objects."""
+    """Every body of a batch in its world as padded arrays (first axis: body), plus the unpadded robots."""
 
-    objects: tuple[Object, ...]
+    world: World
+    robots: tuple[Object, ...]
+    robot_start: int  # where the robot's points (and edges) start: after the moving objects'
+    n_robot_points: np.ndarray  # (B,)
     n_points: np.ndarray
     n_edges: np.ndarray
     edges: np.ndarray  # (B, E, 2)
     rest0: np.ndarray  # (B, E)
     spring_k: np.ndarray
     edge_surface: np.ndarray
+    fixed: np.ndarray  # (B, P) bool
     n_act: np.ndarray
     act_edges: np.ndarray  # (B, A, 2): the two edges each actuator drives
     n_surface: np.ndarray
+    n_robot_surface: np.ndarray  # the robot's surface boxels come first; its unstable threshold
     surface_points: np.ndarray  # (B, S, 4)
     surface_edges: np.ndarray  # (B, S, 4)
     n_pairs: np.ndarray
-    pairs: np.ndarray  # (B, Q, 5): surface boxels i < j, grid neighbours?, corners of i (bits) not in j, of j not in i
+    pairs: np.ndarray  # (B, Q, 5): surface boxels i < j, pair kind, corners of i (bits) not in j, of j not in i
     n_rigid: np.ndarray
     rigid_edges: np.ndarray  # (B, R, 4)
     point_edges: np.ndarray  # (B, 2E): per point, its edges where it is end a, then where it is end b
     point_start: np.ndarray  # (B, P + 1): where each point's run in point_edges starts
     point_n_a: np.ndarray  # (B, P): how many of them are a ends
     init_pos: np.ndarray  # (B, P, 2)
+
+    @property
+    def objects(self) -> tuple[Object, ...]:
+        """The robots (one per body), as earlier versions named them."""
+        return self.robots
 
     @property
     def max_points(self) -> int:
@@ -60,27 +194,9 @@ class BodyTables:
     def max_actuators(self) -> int:
         return self.act_edges.shape[1]
 
-    def obs_size(self, b: int) -> int:
-        return 2 + 2 * int(self.n_points[b])
-
-
-@dataclass(frozen=True)
-class Terrain:
-    """Fixed terrain: static boxels (surface ones only) with a lookup by 0.1-wide column."""
-
-    pos: np.ndarray
-    edges: np.ndarray
-    edge_surface: np.ndarray
-    boxel_points: np.ndarray
-    boxel_edges: np.ndarray
-    bbox: np.ndarray
-    col_start: np.ndarray
-    col_boxel: np.ndarray
-    zero: np.ndarray  # the terrain's (zero) velocities, and a sink for forces on it
-
-    def arrays(self) -> tuple:
-        return (self.pos, self.edges, self.edge_surface, self.boxel_points, self.boxel_edges, self.bbox,
-                self.col_start, self.col_boxel, self.zero)
+    @property
+    def max_robot_points(self) -> int:
+        return self.max_points - self.robot_start
 
 
 @dataclass(frozen=True)
@@ -95,36 +211,12 @@ class State:
 
 @dataclass(frozen=True)
 class StepOutput:
-    obs: np.ndarray  # (N, 2 + 2P): [v_com (2), x of each point, y of each point, padding]
-    dx: np.ndarray  # (N,) gain of the centre of mass's x
-    com: np.ndarray  # (N,) the centre of mass's x after the step
-    unstable: np.ndarray  # (N,) bool
+    unstable: np.ndarray  # (N,) bool: the step was undone (Evolution Gym's snapshot is the state before it)
 
 
 def robot_object(body: Body | np.ndarray | str, at: tuple[int, int] = ROBOT_AT) -> Object:
     grid = np.asarray(as_body(body).voxels) if not isinstance(body, np.ndarray) else body
     return build_object(grid, at)
-
-
-def terrain(grid: np.ndarray, at: tuple[int, int] = (0, 0)) -> Terrain:
-    """Tables of a fixed terrain object (every cell fixed)."""
-    obj = build_object(np.where(np.asarray(grid) != 0, FIXED, 0), at, point_offset=1, edge_offset=1)
-    idx = np.flatnonzero(obj.boxel_surface)
-    pts = obj.pos[obj.boxel_points[idx]]  # (n, 4, 2)
-    bbox = np.concatenate([pts.min(axis=1), pts.max(axis=1)], axis=1)
-    col = np.floor(bbox[:, 0] / 0.1 + 0.5).astype(np.int64)
-    order = np.argsort(col, kind="stable")
-    ncol = int(col.max()) + 1
-    start = np.searchsorted(col[order], np.arange(ncol + 1)).astype(np.int64)
-    return Terrain(
-        pos=obj.pos, edges=obj.edge_ab, edge_surface=obj.edge_surface,
-        boxel_points=obj.boxel_points[idx], boxel_edges=obj.boxel_edges[idx], bbox=bbox,
-        col_start=start, col_boxel=order.astype(np.int64), zero=np.zeros_like(obj.pos),
-    )
-
-
-#: Walker-v0's terrain: a row of 100 fixed voxels
-WALKER_TERRAIN = terrain(np.full((1, 100), FIXED))
 
 
 def _pad(rows: Sequence[np.ndarray], shape: tuple[int, ...], dtype, fill=0) -> np.ndarray:
@@ -134,12 +226,12 @@ def _pad(rows: Sequence[np.ndarray], shape: tuple[int, ...], dtype, fill=0) -> n
     return out
 
 
-def _incidence(obj: Object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _incidence(edge_ab: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Each point's edges (as end a, then as end b, in edge order), where its run starts, its a count."""
     runs, n_a = [], []
-    for p in range(len(obj.pos)):
-        ends_a = np.flatnonzero(obj.edge_ab[:, 0] == p)
-        runs.append(np.concatenate([ends_a, np.flatnonzero(obj.edge_ab[:, 1] == p)]))
+    for p in range(n_points):
+        ends_a = np.flatnonzero(edge_ab[:, 0] == p)
+        runs.append(np.concatenate([ends_a, np.flatnonzero(edge_ab[:, 1] == p)]))
         n_a.append(len(ends_a))
     start = np.concatenate([[0], np.cumsum([len(r) for r in runs])])
     return np.concatenate(runs).astype(np.int64), start.astype(np.int64), np.array(n_a, dtype=np.int64)
@@ -150,89 +242,162 @@ def _unshared(main: np.ndarray, ref: np.ndarray) -> int:
     return sum(1 << k for k in range(4) if main[k] not in ref)
 
 
-def body_tables(bodies: Sequence[Body | np.ndarray | str], pad: BodyTables | None = None,
-                at: tuple[int, int] = ROBOT_AT) -> BodyTables:
-    """Build and pad the tables of ``bodies`` placed at voxel ``at`` (to the largest of them, or at
-    least to ``pad``'s sizes)."""
-    objs = tuple(robot_object(b, at) for b in bodies)
-    surf = [np.flatnonzero(o.boxel_surface) for o in objs]
-    pair_rows, rigid_rows, act_rows = [], [], []
-    for o, s in zip(objs, surf):
-        cells, corners = o.boxel_cell[s], o.boxel_points[s]
-        rows = [(i, j, int(np.all(np.abs(cells[i] - cells[j]) <= 1)),
-                 _unshared(corners[i], corners[j]), _unshared(corners[j], corners[i]))
-                for i in range(len(s)) for j in range(i + 1, len(s))]
-        pair_rows.append(np.array(rows, dtype=np.int64).reshape(-1, 5))
-        rigid_rows.append(o.boxel_edges[o.boxel_type == RIGID])
-        acts = []
-        for a in o.actuators:
-            top, right, bot, left = o.boxel_edges[a]
-            acts.append((top, bot) if o.boxel_type[a] == H_ACT else (left, right))
-            assert o.boxel_type[a] in (H_ACT, V_ACT)
-        act_rows.append(np.array(acts, dtype=np.int64).reshape(-1, 2))
+@dataclass(frozen=True)
+class _Part:
+    """One object placed in an environment's arrays: its surface boxels' rows and global indices."""
 
-    def size(rows, axis=0, minimum=0):
-        return max([minimum, 1] + [r.shape[axis] for r in rows])
+    obj: Object
+    point0: int
+    edge0: int
+    surface: np.ndarray  # its surface boxels (indices into obj's boxels)
+    surface0: int  # where they start in the environment's surface list
 
-    P = size([o.pos for o in objs], minimum=0 if pad is None else pad.init_pos.shape[1])
-    E = size([o.edge_ab for o in objs], minimum=0 if pad is None else pad.edges.shape[1])
-    S = size([o.boxel_points[s] for o, s in zip(objs, surf)], minimum=0 if pad is None else pad.surface_points.shape[1])
-    Q = size(pair_rows, minimum=0 if pad is None else pad.pairs.shape[1])
-    R = size(rigid_rows, minimum=0 if pad is None else pad.rigid_edges.shape[1])
-    A = size(act_rows, minimum=0 if pad is None else pad.act_edges.shape[1])
-    incidence = [_incidence(o) for o in objs]
+
+def _pairs(parts: Sequence[_Part], robot: int) -> np.ndarray:
+    """Candidate boxel pairs: within each object (the robot's first, kind by adjacency), then between objects.
+
+    Pairs whose eight corners are all fixed are left out: their forces land on fixed points only."""
+    rows = []
+
+    def pinned(part: _Part, s: int) -> bool:
+        return bool(np.all(part.obj.fixed[part.obj.boxel_points[part.surface[s]]]))
+
+    order = [robot] + [i for i in range(len(parts)) if i != robot]
+    for k in order:
+        part = parts[k]
+        cells, corners = part.obj.boxel_cell[part.surface], part.obj.boxel_points[part.surface]
+        for i in range(len(part.surface)):
+            for j in range(i + 1, len(part.surface)):
+                if k == robot:
+                    kind = ROBOT_ADJACENT if np.all(np.abs(cells[i] - cells[j]) <= 1) else ROBOT_APART
+                elif pinned(part, i) and pinned(part, j):
+                    continue
+                else:
+                    kind = SAME_OBJECT
+                rows.append((part.surface0 + i, part.surface0 + j, kind,
+                             _unshared(corners[i], corners[j]), _unshared(corners[j], corners[i])))
+    for a in range(len(order)):
+        for b in range(a + 1, len(order)):
+            pa, pb = parts[order[a]], parts[order[b]]
+            for i in range(len(pa.surface)):
+                for j in range(len(pb.surface)):
+                    if pinned(pa, i) and pinned(pb, j):
+                        continue
+                    rows.append((pa.surface0 + i, pb.surface0 + j, TWO_OBJECTS, 15, 15))
+    return np.array(rows, dtype=np.int64).reshape(-1, 5)
+
+
+def _assemble(w: World, robot: Object) -> dict[str, np.ndarray]:
+    """One environment's arrays: the world's moving objects, then the robot."""
+    parts: list[_Part] = []
+    point0 = edge0 = surface0 = 0
+    for obj in (*w.moving, robot):
+        surface = np.flatnonzero(obj.boxel_surface)
+        parts.append(_Part(obj, point0, edge0, surface, 0))
+        point0 += len(obj.pos)
+        edge0 += len(obj.edge_ab)
+    robot_index = len(parts) - 1
+    for k in [robot_index] + list(range(robot_index)):  # the robot's surface boxels first
+        parts[k] = replace(parts[k], surface0=surface0)
+        surface0 += len(parts[k].surface)
+    by_surface = sorted(parts, key=lambda p: p.surface0)
+    edge_ab = np.concatenate([p.obj.edge_ab + p.point0 for p in parts])
+    rigid = np.concatenate([p.obj.boxel_edges[p.obj.boxel_type == RIGID] + p.edge0 for p in by_surface])
+    acts = []
+    for a in robot.actuators:
+        top, right, bot, left = robot.boxel_edges[a] + parts[robot_index].edge0
+        assert robot.boxel_type[a] in (H_ACT, V_ACT)
+        acts.append((top, bot) if robot.boxel_type[a] == H_ACT else (left, right))
+    n_points = point0
+    return {
+        "edges": edge_ab,
+        "rest0": np.concatenate([p.obj.edge_len for p in parts]),
+        "spring_k": np.concatenate([p.obj.edge_k for p in parts]),
+        "edge_surface": np.concatenate([p.obj.edge_surface for p in parts]),
+        "fixed": np.concatenate([p.obj.fixed for p in parts]),
+        "act_edges": np.array(acts, dtype=np.int64).reshape(-1, 2),
+        "surface_points": np.concatenate([p.obj.boxel_points[p.surface] + p.point0 for p in by_surface]),
+        "surface_edges": np.concatenate([p.obj.boxel_edges[p.surface] + p.edge0 for p in by_surface]),
+        "pairs": _pairs(parts, robot_index),
+        "rigid_edges": rigid.reshape(-1, 4),
+        "incidence": _incidence(edge_ab, n_points),  # type: ignore[dict-item]
+        "init_pos": np.concatenate([p.obj.pos for p in parts]),
+        "n_robot_surface": np.array(len(parts[robot_index].surface)),
+    }
+
+
+def body_tables(bodies: Sequence[Body | np.ndarray | str], w: World = WALKER_WORLD,
+                pad: BodyTables | None = None) -> BodyTables:
+    """Build and pad the tables of ``bodies`` in world ``w`` (to the largest of them, or at least to ``pad``'s
+    sizes)."""
+    robots = tuple(robot_object(b, w.robot_at) for b in bodies)
+    rows = [_assemble(w, r) for r in robots]
+
+    def size(key: str, axis: int = 0, padded: np.ndarray | None = None) -> int:
+        return max([1 if padded is None else padded.shape[1]] + [r[key].shape[axis] for r in rows])
+
+    P = size("init_pos", padded=None if pad is None else pad.init_pos)
+    E = size("edges", padded=None if pad is None else pad.edges)
+    S = size("surface_points", padded=None if pad is None else pad.surface_points)
+    Q = size("pairs", padded=None if pad is None else pad.pairs)
+    R = size("rigid_edges", padded=None if pad is None else pad.rigid_edges)
+    A = size("act_edges", padded=None if pad is None else pad.act_edges)
     i64 = np.int64
+
+    def stack(key: str, shape: tuple[int, ...], dtype: Any, fill: Any = 0) -> np.ndarray:
+        return _pad([r[key] for r in rows], shape, dtype, fill)
+
     return BodyTables(
-        objects=objs,
-        n_points=np.array([len(o.pos) for o in objs], dtype=i64),
-        n_edges=np.array([len(o.edge_ab) for o in objs], dtype=i64),
-        edges=_pad([o.edge_ab for o in objs], (E, 2), i64),
-        rest0=_pad([o.edge_len for o in objs], (E,), np.float64, 1.0),
-        spring_k=_pad([o.edge_k for o in objs], (E,), np.float64),
-        edge_surface=_pad([o.edge_surface for o in objs], (E,), np.bool_),
-        n_act=np.array([len(r) for r in act_rows], dtype=i64),
-        act_edges=_pad(act_rows, (A, 2), i64),
-        n_surface=np.array([len(s) for s in surf], dtype=i64),
-        surface_points=_pad([o.boxel_points[s] for o, s in zip(objs, surf)], (S, 4), i64),
-        surface_edges=_pad([o.boxel_edges[s] for o, s in zip(objs, surf)], (S, 4), i64),
-        n_pairs=np.array([len(r) for r in pair_rows], dtype=i64),
-        pairs=_pad(pair_rows, (Q, 5), i64),
-        n_rigid=np.array([len(r) for r in rigid_rows], dtype=i64),
-        rigid_edges=_pad(rigid_rows, (R, 4), i64),
-        point_edges=_pad([inc[0] for inc in incidence], (2 * E,), i64),
-        point_start=_pad([inc[1] for inc in incidence], (P + 1,), i64),
-        point_n_a=_pad([inc[2] for inc in incidence], (P,), i64),
-        init_pos=_pad([o.pos for o in objs], (P, 2), np.float64),
+        world=w,
+        robots=robots,
+        robot_start=w.n_points,
+        n_robot_points=np.array([len(r.pos) for r in robots], dtype=i64),
+        n_points=np.array([len(r["init_pos"]) for r in rows], dtype=i64),
+        n_edges=np.array([len(r["edges"]) for r in rows], dtype=i64),
+        edges=stack("edges", (E, 2), i64),
+        rest0=stack("rest0", (E,), np.float64, 1.0),
+        spring_k=stack("spring_k", (E,), np.float64),
+        edge_surface=stack("edge_surface", (E,), np.bool_),
+        fixed=stack("fixed", (P,), np.bool_),
+        n_act=np.array([len(r["act_edges"]) for r in rows], dtype=i64),
+        act_edges=stack("act_edges", (A, 2), i64),
+        n_surface=np.array([len(r["surface_points"]) for r in rows], dtype=i64),
+        n_robot_surface=np.array([int(r["n_robot_surface"]) for r in rows], dtype=i64),
+        surface_points=stack("surface_points", (S, 4), i64),
+        surface_edges=stack("surface_edges", (S, 4), i64),
+        n_pairs=np.array([len(r["pairs"]) for r in rows], dtype=i64),
+        pairs=stack("pairs", (Q, 5), i64),
+        n_rigid=np.array([len(r["rigid_edges"]) for r in rows], dtype=i64),
+        rigid_edges=stack("rigid_edges", (R, 4), i64),
+        point_edges=_pad([r["incidence"][0] for r in rows], (2 * E,), i64),
+        point_start=_pad([r["incidence"][1] for r in rows], (P + 1,), i64),
+        point_n_a=_pad([r["incidence"][2] for r in rows], (P,), i64),
+        init_pos=stack("init_pos", (P, 2), np.float64),
     )
 
 
-def reset(tables: BodyTables, body: np.ndarray) -> State:
-    """Every environment ``i`` at rest in its body's initial pose (``body[i]`` indexes the tables)."""
+def reset(tables: BodyTables, body: np.ndarray, init_pos: np.ndarray | None = None) -> State:
+    """Every environment ``i`` at rest in its body's initial pose (``body[i]`` indexes the tables), or at
+    ``init_pos`` (``(N, P, 2)``: where a task places its objects per environment)."""
     body = np.asarray(body, dtype=np.int64)
-    pos = tables.init_pos[body].copy()
+    pos = tables.init_pos[body].copy() if init_pos is None else np.array(init_pos, dtype=np.float64)
     return State(pos=pos, vel=np.zeros_like(pos), vtrue=np.zeros_like(pos), body=body)
 
 
-def observe(tables: BodyTables, state: State) -> np.ndarray:
-    """Walker-v0's observation of every environment (padded to the tables' largest body)."""
-    out = np.zeros((len(state.body), 2 + 2 * tables.max_points))
-    kernels.observe_batch(state.body, state.pos, state.vel, tables.n_points, out)
-    return out
-
-
-def kernel_args(tables: BodyTables, terrain: Terrain) -> tuple:
+def kernel_args(tables: BodyTables) -> tuple:
     """The tables' and terrain's arrays in the order the kernels take them (after the state)."""
     return (tables.n_points, tables.n_edges, tables.edges, tables.rest0, tables.spring_k, tables.edge_surface,
-            tables.n_act, tables.act_edges, tables.n_surface, tables.surface_points, tables.surface_edges,
-            tables.n_pairs, tables.pairs, tables.n_rigid, tables.rigid_edges, tables.point_edges, tables.point_start,
-            tables.point_n_a, *terrain.arrays())
+            tables.fixed, tables.n_act, tables.act_edges, tables.n_surface, tables.n_robot_surface,
+            tables.surface_points, tables.surface_edges, tables.n_pairs, tables.pairs, tables.n_rigid,
+            tables.rigid_edges, tables.point_edges, tables.point_start, tables.point_n_a,
+            *tables.world.terrain.arrays())
 
 
-def step(tables: BodyTables, terrain: Terrain, state: State, actions: np.ndarray,
+def step(tables: BodyTables, state: State, actions: np.ndarray,
          active: np.ndarray | None = None) -> tuple[State, StepOutput]:
     """One env step of every environment: actions ``(N, A)`` (clipped to [0.6, 1.6]), padded per body.
 
-    Environments with ``active[i]`` False keep their state (their outputs are zeros).
+    Environments with ``active[i]`` False keep their state.
     """
     n = len(state.body)
     acts = np.asarray(actions, dtype=np.float64).reshape(n, -1)
@@ -240,12 +405,9 @@ def step(tables: BodyTables, terrain: Terrain, state: State, actions: np.ndarray
         acts = np.pad(acts, ((0, 0), (0, tables.max_actuators - acts.shape[1])), constant_values=1.0)
     new = replace(state, pos=state.pos.copy(), vel=state.vel.copy(), vtrue=state.vtrue.copy())
     active = np.ones(n, dtype=np.bool_) if active is None else np.asarray(active, dtype=np.bool_)
-    obs = np.zeros((n, 2 + 2 * tables.max_points))
-    dx = np.zeros(n)
-    com = np.zeros(n)
     unstable = np.zeros(n, dtype=np.bool_)
     work = kernels.workspace(n, tables.max_points, tables.edges.shape[1], tables.surface_points.shape[1])
     kernel: Any = kernels.step_parallel if n >= PARALLEL_FROM and numba.get_num_threads() > 1 else kernels.step_serial
-    kernel(active, state.body, np.ascontiguousarray(acts), new.pos, new.vel, new.vtrue, *kernel_args(tables, terrain),
-           obs, dx, com, unstable, *work)
-    return new, StepOutput(obs=obs, dx=dx, com=com, unstable=unstable)
+    kernel(active, state.body, np.ascontiguousarray(acts), new.pos, new.vel, new.vtrue, *kernel_args(tables),
+           unstable, *work)
+    return new, StepOutput(unstable=unstable)

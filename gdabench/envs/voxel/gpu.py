@@ -6,9 +6,12 @@ environment's temporaries live differs.  State stays on
 the device between steps; arrays are Numba device arrays (``torch.as_tensor(x, device="cuda")``
 reads them without a copy, through ``__cuda_array_interface__``).
 
-    dev = gpu.to_device(tables, engine.WALKER_TERRAIN)
+    dev = gpu.to_device(tables)
     state = gpu.reset(dev, body)                 # body: host array of table indices
     state, out = gpu.step(dev, state, actions)   # actions: (N, A) host or device array
+
+Observations and rewards are the task layer's, computed from the state on the host
+(``state.pos.copy_to_host()``): the GPU steps the physics only.
 
 Needs ``numba-cuda`` (NVIDIA's CUDA target for Numba) and a CUDA driver; importing this module
 without them fails only when a step is compiled.
@@ -25,7 +28,7 @@ import numpy as np
 from numba import cuda
 
 from . import kernels
-from .engine import BodyTables, State, StepOutput, Terrain, kernel_args
+from .engine import BodyTables, State, StepOutput, kernel_args
 
 #: threads per block: one environment per thread
 THREADS = 64
@@ -42,10 +45,10 @@ def _step_kernel(max_points: int, max_edges: int, max_surface: int) -> Any:
     point_temps, edge_temps, spring_temps = kernels.POINT_TEMPS, kernels.EDGE_TEMPS, kernels.SPRING_TEMPS  # constants
 
     @cuda.jit
-    def kernel(active, body, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, n_act,
-               act_edges, n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges, point_edges,
-               point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero, obs, dx, com,
-               unstable):
+    def kernel(active, body, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, fixed,
+               n_act, act_edges, n_surface, n_robot_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid,
+               rigid_edges, point_edges, point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tbin_start,
+               tbin_boxel, trows, tzero, unstable):
         i = cuda.grid(1)
         if i >= active.shape[0] or not active[i]:
             return
@@ -63,10 +66,11 @@ def _step_kernel(max_points: int, max_edges: int, max_surface: int) -> Any:
                 lp[m, c] = pos[i, m, c]
                 lv[m, c] = vel[i, m, c]
                 lt[m, c] = vt[i, m, c]
-        unstable[i], com[i], dx[i] = kernels.step_env(
-            b, actions[i], lp, lv, lt, n_points, n_edges, edges, rest0, spring_k, edge_surface, n_act, act_edges,
-            n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges, point_edges, point_start,
-            point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero, obs[i], wp, we, ws, wb)
+        unstable[i] = kernels.step_env(
+            b, actions[i], lp, lv, lt, n_points, n_edges, edges, rest0, spring_k, edge_surface, fixed, n_act,
+            act_edges, n_surface, n_robot_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid,
+            rigid_edges, point_edges, point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tbin_start,
+            tbin_boxel, trows, tzero, wp, we, ws, wb)
         for m in range(n):
             for c in range(2):
                 pos[i, m, c] = lp[m, c]
@@ -74,13 +78,6 @@ def _step_kernel(max_points: int, max_edges: int, max_surface: int) -> Any:
                 vt[i, m, c] = lt[m, c]
 
     return kernel
-
-
-@cuda.jit(cache=True)
-def _observe_kernel(body, pos, vel, n_points, out):
-    i = cuda.grid(1)
-    if i < body.shape[0]:
-        kernels._observe(pos[i], vel[i], n_points[body[i]], out[i])
 
 
 @cuda.jit(cache=True)
@@ -106,7 +103,6 @@ class DeviceEngine:
     """A batch's tables and terrain on the GPU (every array a device array), and what its steps keep."""
 
     tables: Any
-    terrain: Any
     init_pos: np.ndarray  # on the host: resets index it
     active: Any = None
 
@@ -121,15 +117,16 @@ def _moved(obj: Any) -> Any:
                            for f in fields(obj) if isinstance(getattr(obj, f.name), np.ndarray)})
 
 
-def to_device(tables: BodyTables, terrain: Terrain) -> DeviceEngine:
-    """Copy a batch's tables and the terrain to the GPU (once per batch)."""
-    return DeviceEngine(tables=_moved(tables), terrain=_moved(terrain), init_pos=tables.init_pos)
+def to_device(tables: BodyTables) -> DeviceEngine:
+    """Copy a batch's tables and its world's terrain to the GPU (once per batch)."""
+    world = replace(tables.world, terrain=_moved(tables.world.terrain))
+    return DeviceEngine(tables=replace(_moved(tables), world=world), init_pos=tables.init_pos)
 
 
-def reset(dev: DeviceEngine, body: np.ndarray) -> State:
-    """Every environment ``i`` at rest in its body's initial pose, on the GPU."""
+def reset(dev: DeviceEngine, body: np.ndarray, init_pos: np.ndarray | None = None) -> State:
+    """Every environment ``i`` at rest in its body's initial pose (or at ``init_pos``), on the GPU."""
     body = np.asarray(body, dtype=np.int64)
-    pos = dev.init_pos[body]
+    pos = dev.init_pos[body] if init_pos is None else np.asarray(init_pos, dtype=np.float64)
     return State(pos=cuda.to_device(pos), vel=cuda.to_device(np.zeros_like(pos)),
                  vtrue=cuda.to_device(np.zeros_like(pos)), body=cuda.to_device(body))
 
@@ -151,17 +148,7 @@ def step(dev: DeviceEngine, state: State, actions: Any, active: Any = None) -> t
     elif isinstance(active, np.ndarray):
         active = cuda.to_device(np.ascontiguousarray(active, dtype=np.bool_))
     new = replace(state, pos=_copy(state.pos), vel=_copy(state.vel), vtrue=_copy(state.vtrue))
-    out = StepOutput(obs=_zeros((n, 2 + 2 * t.max_points)), dx=_zeros((n,)), com=_zeros((n,)),
-                     unstable=_zeros((n,), np.bool_))
-    args = (active, state.body, acts, new.pos, new.vel, new.vtrue, *kernel_args(t, dev.terrain), out.obs, out.dx,
-            out.com, out.unstable)
+    out = StepOutput(unstable=_zeros((n,), np.bool_))
+    args = (active, state.body, acts, new.pos, new.vel, new.vtrue, *kernel_args(t), out.unstable)
     _step_kernel(t.max_points, t.edges.shape[1], t.surface_points.shape[1])[_blocks(n), THREADS](*args)
     return new, out
-
-
-def observe(dev: DeviceEngine, state: State) -> Any:
-    """Walker-v0's observation of every environment, as a device array."""
-    n = state.body.shape[0]
-    out = _zeros((n, 2 + 2 * dev.tables.max_points))
-    _observe_kernel[_blocks(n), THREADS](state.body, state.pos, state.vel, dev.tables.n_points, out)
-    return out

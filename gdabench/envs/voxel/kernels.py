@@ -6,9 +6,10 @@ in edge order, every RK4 stage, the contact force terms), so that trajectories a
 Gym's to rounding.  Every loop runs over one body's own counts, never over the padding, so a body's
 trajectory is bit-identical alone, in any batch, padded to any shape and on any number of threads.
 
-Arrays: ``pos``/``vel``/``vtrue`` are ``(N, P, 2)`` (robot points only; the terrain is a static
-collider with its own tables); body tables are indexed by ``body[i]`` and padded to the batch's
-largest body.
+Arrays: ``pos``/``vel``/``vtrue`` are ``(N, P, 2)`` (every point that can move: the world's moving
+objects', then the robot's; objects of fixed voxels only are one static collider with its own tables);
+body tables are indexed by ``body[i]`` and padded to the batch's largest body.  The kernels know no task:
+they step the physics and report instability, nothing else.
 """
 
 from __future__ import annotations
@@ -241,11 +242,11 @@ def _accelerations(xp, xv, cforce, n, fe, inc, start, n_a, out_a):
 
 
 @_jit
-def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, rig, inc, start, n_a, terrain, pos, vel,
-             vt, s):
+def _substep(n, ne, ea, rest0, k, esurf, fixed, goal, ns, sbp, sbe, npairs, pairs, nr, rig, inc, start, n_a, terrain,
+             pos, vel, vt, s):
     """``Environment::step``: one physics update of dt 1e-4.  Returns the count of overlapping
-    non-adjacent surface boxel pairs (ordered, as Evolution Gym counts them) seen at its start."""
-    tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero = terrain
+    non-adjacent surface boxel pairs of the robot (ordered, as Evolution Gym counts them) seen at its start."""
+    tpos, tedge, tsurf, tbp, tbe, tbb, tbin_start, tbin_boxel, trows, tzero = terrain
     cf, bb, rest, fe, x0, v0, xs, vs, acc, sp, sv, corr = s
     # collisions, from the positions and true velocities at the start of the update
     for q in range(ns):
@@ -267,10 +268,12 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
         j = pairs[q, 1]
         if bb[i, 0] > bb[j, 2] or bb[i, 2] < bb[j, 0] or bb[i, 1] > bb[j, 3] or bb[i, 3] < bb[j, 1]:
             continue  # BoundingBox::in: the boxes neither overlap nor touch
-        if pairs[q, 2] == 0:
+        kind = pairs[q, 2]
+        if kind == 0:  # two of the robot's boxels, not grid neighbours
             count += 2
         # PhysicsEngine::resolve_boxel_collisions both ways: every tested corner of one boxel inside the
         # other is pushed out; the bounding-box tree meets a pair of one object twice, as (i, j) and (j, i)
+        times = 1 if kind == 3 else 2
         for d in range(2):
             m, r = (i, j) if d == 0 else (j, i)
             mask = pairs[q, 3 + d]
@@ -279,16 +282,22 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
                 p = sbp[m, corner]
                 if (mask >> corner) & 1 and _inside(pos[p, 0], pos[p, 1], cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3,
                                                bb[r, 0], bb[r, 1], bb[r, 2], bb[r, 3]):
-                    _resolve_point(p, sbe, m, corner, pos, ea, vt, cf, True, sbe, r, pos, ea, esurf, vt, cf, True, 2)
-    ncol = tcol_start.shape[0] - 1
+                    _resolve_point(p, sbe, m, corner, pos, ea, vt, cf, True, sbe, r, pos, ea, esurf, vt, cf, True,
+                                   times)
+    nrow = trows[0]
+    ncol = (tbin_start.shape[0] - 1) // nrow
     for q in range(ns):
-        if math.isnan(bb[q, 0]) or math.isnan(bb[q, 2]):
+        if math.isnan(bb[q, 0]) or math.isnan(bb[q, 2]) or math.isnan(bb[q, 1]) or math.isnan(bb[q, 3]):
             continue
         c0 = max(int(math.floor(bb[q, 0] / 0.1)) - 1, 0)
         c1 = min(int(math.floor(bb[q, 2] / 0.1)) + 1, ncol - 1)
-        for c in range(c0, c1 + 1):
-            for m in range(tcol_start[c], tcol_start[c + 1]):
-                t = tcol_boxel[m]
+        r0 = max(int(math.floor(bb[q, 1] / 0.1)) - 1, 0)
+        r1 = min(int(math.floor(bb[q, 3] / 0.1)) + 1, nrow - 1)
+        if r1 < r0:
+            continue
+        for c in range(c0, c1 + 1):  # the static boxels whose corner's cell is near: (column, row) bins
+            for m in range(tbin_start[c * nrow + r0], tbin_start[c * nrow + r1 + 1]):
+                t = tbin_boxel[m]
                 if bb[q, 0] > tbb[t, 2] or bb[q, 2] < tbb[t, 0] or bb[q, 1] > tbb[t, 3] or bb[q, 3] < tbb[t, 1]:
                     continue  # BoundingBox::in: the boxes neither overlap nor touch
                 # the robot's corners inside the terrain boxel, then the terrain's inside the robot's
@@ -343,6 +352,8 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
                 vs[i, c] = v0[i, c] + kv * step
     _slope(xs, vs, ne, ea, rest, k, cf, n, fe, inc, start, n_a, acc)
     for i in range(n):
+        if fixed[i]:  # pinned: moved through RK4's stages like any point, but its update is zeroed
+            continue
         for c in range(2):
             pos[i, c] = x0[i, c] + (sp[i, c] + vs[i, c] * DT) / 6
             vel[i, c] = v0[i, c] + (sv[i, c] + acc[i, c] * DT) / 6
@@ -363,12 +374,14 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
             uy = dy * under
         corr[j, 0] = (ox + ux) * 0.8
         corr[j, 1] = (oy + uy) * 0.8
+    for j in range(ne):  # (fixed points are not moved here; the rigid pass below does not ask, as in Evolution Gym)
+        if not fixed[ea[j, 0]]:
+            pos[ea[j, 0], 0] -= corr[j, 0]
+            pos[ea[j, 0], 1] -= corr[j, 1]
     for j in range(ne):
-        pos[ea[j, 0], 0] -= corr[j, 0]
-        pos[ea[j, 0], 1] -= corr[j, 1]
-    for j in range(ne):
-        pos[ea[j, 1], 0] += corr[j, 0]
-        pos[ea[j, 1], 1] += corr[j, 1]
+        if not fixed[ea[j, 1]]:
+            pos[ea[j, 1], 0] += corr[j, 0]
+            pos[ea[j, 1], 1] += corr[j, 1]
     for r in range(nr):
         for m in range(4):
             j = rig[r, m]
@@ -398,52 +411,19 @@ def _substep(n, ne, ea, rest0, k, esurf, goal, ns, sbp, sbe, npairs, pairs, nr, 
 
 
 @_jit
-def _com(pos, n):
-    """Evolution Gym's centre of mass x: the mean of the points' x as its Python side scales them."""
-    sx = 0.0
-    for i in range(n):
-        sx += pos[i, 0] / 0.1 * 0.1
-    return sx / n
+def step_env(b, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, fixed, n_act, act_edges,
+             n_surface, n_robot_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges,
+             point_edges, point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tbin_start, tbin_boxel, trows,
+             tzero, wp, we, ws, wb):
+    """One env step (30 updates) of one environment of body ``b``, in place; returns whether it became unstable.
 
-
-@_jit
-def _observe(pos, vel, n, out):
-    """Walker-v0's observation: centre-of-mass velocity, then every point's x, then every y, relative to the centre."""
-    vx = 0.0
-    vy = 0.0
-    mx = 0.0
-    my = 0.0
-    for i in range(n):
-        vx += vel[i, 0] / 0.1
-        vy += vel[i, 1] / 0.1
-        mx += pos[i, 0] / 0.1
-        my += pos[i, 1] / 0.1
-    mx = mx / n
-    my = my / n
-    out[0] = vx / n * 0.1
-    out[1] = vy / n * 0.1
-    for i in range(n):
-        out[2 + i] = (pos[i, 0] / 0.1 - mx) * 0.1
-        out[2 + n + i] = (pos[i, 1] / 0.1 - my) * 0.1
-    for i in range(2 + 2 * n, out.shape[0]):
-        out[i] = 0.0
-
-
-@_jit
-def step_env(b, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, n_act, act_edges,
-             n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges, point_edges, point_start,
-             point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero, obs, wp, we, ws, wb):
-    """One env step (30 updates) of one environment of body ``b``, in place; returns
-    ``(unstable, com, dx)``: whether it became unstable, its centre of mass's x after the step and
-    that x's gain.
-
-    ``actions``, ``pos``/``vel``/``vt`` (points x 2) and ``obs`` are the environment's own rows;
-    actions are clipped to [0.6, 1.6] here.  An environment that becomes unstable is put back to its
-    state before the step, as Evolution Gym's snapshots are.  Nothing is allocated: every temporary
-    lives in ``wp``/``we``/``ws``/``wb`` (one environment's share of :func:`workspace`), so the same
-    function compiles for a CUDA thread, whose caller can keep them in the thread's local memory.
+    ``actions`` and ``pos``/``vel``/``vt`` (points x 2) are the environment's own rows; actions are
+    clipped to [0.6, 1.6] here.  An environment that becomes unstable is put back to its state before
+    the step, as Evolution Gym's snapshots are.  Nothing is allocated: every temporary lives in
+    ``wp``/``we``/``ws``/``wb`` (one environment's share of :func:`workspace`), so the same function
+    compiles for a CUDA thread, whose caller can keep them in the thread's local memory.
     """
-    terrain = (tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero)
+    terrain = (tpos, tedge, tsurf, tbp, tbe, tbb, tbin_start, tbin_boxel, trows, tzero)
     p0 = wp[8]
     v0 = wp[9]
     t0 = wp[10]
@@ -478,23 +458,18 @@ def step_env(b, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k
             p0[m, c] = pos[m, c]
             v0[m, c] = vel[m, c]
             t0[m, c] = vt[m, c]
-    before = _com(pos, n)
-    unstable = False
     for _ in range(SUBSTEPS):
-        c = _substep(n, ne, ea, r0, spring_k[b], edge_surface[b], goal, n_surface[b], surface_points[b],
+        c = _substep(n, ne, ea, r0, spring_k[b], edge_surface[b], fixed[b], goal, n_surface[b], surface_points[b],
                      surface_edges[b], n_pairs[b], pairs[b], n_rigid[b], rigid_edges[b], point_edges[b],
                      point_start[b], point_n_a[b], terrain, pos, vel, vt, scratch)
-        if c > n_surface[b]:
-            unstable = True
+        if c > n_robot_surface[b]:
             for m in range(n):
                 for d in range(2):
                     pos[m, d] = p0[m, d]
                     vel[m, d] = v0[m, d]
                     vt[m, d] = t0[m, d]
-            break
-    _observe(pos, vel, n, obs)
-    com = _com(pos, n)
-    return unstable, com, com - before
+            return True
+    return False
 
 
 #: per environment, the points' temporaries (collision forces, RK4 stages, the state before the step),
@@ -509,16 +484,16 @@ def workspace(n: int, points: int, edges: int, surface: int) -> tuple[np.ndarray
 
 
 @_jit
-def _step_row(i, active, body, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, n_act,
-              act_edges, n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges, point_edges,
-              point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero, obs, dx, com,
-              unstable, work_points, work_edges, work_springs, work_boxes):
+def _step_row(i, active, body, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, fixed,
+              n_act, act_edges, n_surface, n_robot_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid,
+              rigid_edges, point_edges, point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tbin_start,
+              tbin_boxel, trows, tzero, unstable, work_points, work_edges, work_springs, work_boxes):
     if active[i]:
-        unstable[i], com[i], dx[i] = step_env(
-            body[i], actions[i], pos[i], vel[i], vt[i], n_points, n_edges, edges, rest0, spring_k, edge_surface,
-            n_act, act_edges, n_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges,
-            point_edges, point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tcol_start, tcol_boxel, tzero,
-            obs[i], work_points[i], work_edges[i], work_springs[i], work_boxes[i])
+        unstable[i] = step_env(
+            body[i], actions[i], pos[i], vel[i], vt[i], n_points, n_edges, edges, rest0, spring_k, edge_surface, fixed,
+            n_act, act_edges, n_surface, n_robot_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid,
+            rigid_edges, point_edges, point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tbin_start,
+            tbin_boxel, trows, tzero, work_points[i], work_edges[i], work_springs[i], work_boxes[i])
 
 
 @numba.njit(cache=True, error_model="numpy", boundscheck=False, parallel=True)
@@ -533,9 +508,3 @@ def step_serial(active, *args):
     """:func:`step_env` for every active environment in turn (small batches: no threads to wake)."""
     for i in range(active.shape[0]):
         _step_row(i, active, *args)
-
-
-@numba.njit(cache=True, error_model="numpy", boundscheck=False)
-def observe_batch(body, pos, vel, n_points, out):
-    for i in range(body.shape[0]):
-        _observe(pos[i], vel[i], n_points[body[i]], out[i])

@@ -2,6 +2,8 @@
 
 import gdabench
 
+from gdabench.envs.tasks.catalog import CATALOG
+
 from .tasks import TASKS
 
 
@@ -11,7 +13,8 @@ def gdabench_environments():
         gdabench.EnvironmentSpec(
             name=f"evogym/{task}",
             factory="gdabench_evogym.env:EvogymTask",
-            description=f"Evolution Gym 2.0's {task} (C++ simulator), scored by a controller",
+            description=f"Evolution Gym 2.0's {task} [{CATALOG[task].difficulty}] (C++ simulator), scored by a "
+                        "controller",
             defaults={"task": task},
             requires_controller=True,
         )
