@@ -2,9 +2,10 @@
 
     bash plugins/gdabench-evogym/install.sh /tmp/venv-evogym
     /tmp/venv-evogym/bin/python benchmarks/evogym_record.py tests/fixtures/voxel_parity.npz
-    /tmp/venv-evogym/bin/python benchmarks/evogym_record.py tests/fixtures/task_parity.npz --tasks [TASK ...]
+    /tmp/venv-evogym/bin/python benchmarks/evogym_record.py tests/fixtures/tasks --tasks [TASK ...]
 
-``--tasks``: for every task of Evolution Gym 2.0 and each of :data:`TASK_BODIES`, one episode's first
+``--tasks``: one file per task, ``<folder>/<task>.npz`` (every task of Evolution Gym 2.0, or those named):
+for each of :data:`TASK_BODIES`, one episode's first
 :data:`TASK_STEPS` steps of the task's own Gymnasium environment under a fixed gait: the raw point positions
 of every object at the start and of every object that can move after each step, the observations, rewards
 and ``done`` flags, and the random set-up where the task draws one (Catcher-v0's offsets,
@@ -140,31 +141,32 @@ def record_task(task: str, index: int, steps: int) -> dict[str, np.ndarray]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("path", type=Path, help="the .npz file to write (tests/fixtures/voxel_parity.npz)")
+    parser.add_argument("path", type=Path, help="the .npz file to write (tests/fixtures/voxel_parity.npz), or with "
+                        "--tasks the folder of the tasks' files (tests/fixtures/tasks)")
     parser.add_argument("--tasks", nargs="*", metavar="TASK", default=None,
                         help="record Evolution Gym's tasks (all, or those named) instead of the walker cases")
     parser.add_argument("--steps", type=int, default=TASK_STEPS, help="env steps per task recording")
     args = parser.parse_args()
     try:
-        data = {}
         if args.tasks is None:
+            data = {}
             for name in CASES:
                 data.update(record(name))
-            names = list(CASES)
-        else:
-            import evogym
+            np.savez_compressed(args.path, **data)
+            print(f"wrote {args.path}: {', '.join(CASES)}")
+            return
+        import evogym
 
-            names = args.tasks or list(evogym.BASELINE_ENV_NAMES)
-            if args.path.exists():  # keep the other tasks' recordings
-                data.update({k: v for k, v in np.load(args.path).items() if k.split("/")[0] not in names})
-            for task in names:
-                for index in range(len(TASK_BODIES)):
-                    data.update(record_task(task, index, args.steps))
+        args.path.mkdir(parents=True, exist_ok=True)
+        for task in args.tasks or list(evogym.BASELINE_ENV_NAMES):
+            data = {}
+            for index in range(len(TASK_BODIES)):
+                data.update(record_task(task, index, args.steps))
+            np.savez_compressed(args.path / f"{task}.npz", **data)
+            print(f"wrote {args.path / task}.npz")
     except ImportError as exc:
         print(f"error: Evolution Gym is not installed ({exc}); run this in plugins/gdabench-evogym's venv", file=sys.stderr)
         raise SystemExit(2) from None
-    np.savez_compressed(args.path, **data)
-    print(f"wrote {args.path}: {', '.join(names)}")
 
 
 if __name__ == "__main__":

@@ -1,8 +1,8 @@
 """Evolution Gym's tasks on the voxel engine (``voxel/<task>``): parity with Evolution Gym 2.0, per task.
 
-Parity numbers come from ``tests/fixtures/task_parity.npz``, recorded from Evolution Gym 2.0's own
-Gymnasium environments with ``benchmarks/evogym_record.py --tasks`` (CI never needs Evolution Gym): for
-every task and two bodies, the first steps of an episode under a fixed gait.
+Parity numbers come from ``tests/fixtures/tasks/<task>.npz``, recorded from Evolution Gym 2.0's own
+Gymnasium environments with ``benchmarks/evogym_record.py tests/fixtures/tasks --tasks`` (CI never needs
+Evolution Gym): for every task and two bodies, the first steps of an episode under a fixed gait.
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ import pytest
 from gdabench.envs.tasks import CATALOG
 from gdabench.envs.voxel.batch import TaskBatch
 
-FIXTURE = Path(__file__).parent / "fixtures" / "task_parity.npz"
-RECORDINGS = sorted({"/".join(k.split("/")[:2]) for k in np.load(FIXTURE)})
+FIXTURES = Path(__file__).parent / "fixtures" / "tasks"
+RECORDINGS = sorted({"/".join(k.split("/")[:2]) for f in FIXTURES.glob("*.npz") for k in np.load(f)})
 #: the bar: agreement with Evolution Gym over the first ten env steps, in double precision
 TOLERANCE, STEPS = 1e-6, 10
 
@@ -34,8 +34,10 @@ def object_points(batch: TaskBatch, name: str) -> np.ndarray:
 
 def replay(key: str) -> dict[str, list[float]]:
     """Play recording ``key`` on the voxel engine; the largest gaps to Evolution Gym's numbers, per step."""
-    data = {k.removeprefix(key + "/"): v for k, v in np.load(FIXTURE).items() if k.startswith(key + "/")}
-    batch = TaskBatch(key.split("/")[0], [str(data["body"])])
+    task = key.split("/")[0]
+    data = {k.removeprefix(key + "/"): v for k, v in np.load(FIXTURES / f"{task}.npz").items()
+            if k.startswith(key + "/")}
+    batch = TaskBatch(task, [str(data["body"])])
     batch.seed([0])
     size = batch.obs_sizes[0]
     obs = batch.reset()[0, :size]
