@@ -26,10 +26,7 @@ def object_points(batch: TaskBatch, name: str) -> np.ndarray:
     if name == "robot":
         start = batch.tables.robot_start
         return batch.state.pos[0, start:start + batch.robot_points[0]]
-    if name in batch.world.names:
-        start, count = batch.frame().objects[name]
-        return batch.state.pos[0, start:start + count]
-    return batch.world.static[batch.world.static_names.index(name)].pos
+    return batch.frame().positions(name)[0]
 
 
 def replay(key: str) -> dict[str, list[float]]:

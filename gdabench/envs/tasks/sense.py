@@ -11,7 +11,7 @@ operations where it can change a result: positions are read as its Python side s
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Mapping
 
 import numba
@@ -28,7 +28,9 @@ class Frame:
     ``pos``/``vel``/``init`` are ``(N, P, 2)`` in metres (``init``: at the episode's start, which
     orientations are measured from).  Moving objects occupy the same columns in every environment
     (``objects[name] = (start, count)``), the robot ``robot_start`` onwards (``robot_count[i]`` points:
-    bodies differ); objects that never move are given once, in ``static``.
+    bodies differ); objects that never move are given once, in ``static``; of an object only partly
+    simulated (fixed voxels far from its moving ones), ``partial[name] = (start, which, rest)``: its points
+    ``which`` occupy the columns from ``start``, all of them rest at ``rest``.
     """
 
     pos: np.ndarray
@@ -38,28 +40,36 @@ class Frame:
     robot_count: np.ndarray
     objects: Mapping[str, tuple[int, int]]
     static: Mapping[str, np.ndarray]
+    partial: Mapping[str, tuple[int, np.ndarray, np.ndarray]] = field(default_factory=dict)
 
     @property
     def n(self) -> int:
         return self.pos.shape[0]
 
     def span(self, name: str) -> tuple[np.ndarray, np.ndarray]:
-        """(start, count) per environment of object ``name``'s points."""
+        """(start, count) per environment of object ``name``'s points (the robot, or a wholly moving object)."""
         if name == "robot":
             return np.full(self.n, self.robot_start, dtype=np.int64), self.robot_count
+        if name not in self.objects:
+            raise ValueError(f"object {name!r} is not wholly simulated: read its points with Frame.points")
         start, count = self.objects[name]
         return np.full(self.n, start, dtype=np.int64), np.full(self.n, count, dtype=np.int64)
 
+    def positions(self, name: str) -> np.ndarray:
+        """Every point of object ``name`` (not the robot), ``(N, points, 2)``, in Evolution Gym's order."""
+        if name in self.static:
+            return np.broadcast_to(self.static[name], (self.n, *self.static[name].shape))
+        if name in self.partial:
+            start, which, rest = self.partial[name]
+            out = np.repeat(rest[None], self.n, axis=0)
+            out[:, which] = self.pos[:, start:start + len(which)]
+            return out
+        start, count = self.objects[name]
+        return self.pos[:, start:start + count]
+
     def points(self, names: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
         """Positions of the named objects' points, ``(N, M, 2)``, and how many each environment has."""
-        parts = []
-        for name in names:
-            if name in self.static:
-                parts.append(np.broadcast_to(self.static[name], (self.n, *self.static[name].shape)))
-            else:
-                start, count = self.objects[name]
-                parts.append(self.pos[:, start:start + count])
-        merged = np.ascontiguousarray(np.concatenate(parts, axis=1))
+        merged = np.ascontiguousarray(np.concatenate([self.positions(name) for name in names], axis=1))
         return merged, np.full(self.n, merged.shape[1], dtype=np.int64)
 
 

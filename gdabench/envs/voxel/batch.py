@@ -57,8 +57,11 @@ class TaskBatch:
         self.width = self.task_type.obs_size(int(self.tables.max_robot_points))
         self.rngs = [np.random.default_rng() for _ in self.body_index]
         self.done = np.zeros(self.num_envs, dtype=bool)
-        self._objects = {name: (start, len(obj.pos)) for (name, start), obj in
-                         zip(self.world.point_starts.items(), self.world.moving)}
+        w, starts = self.world, self.world.point_starts
+        self._objects = {name: (starts[name], len(kept)) for name, kept, rest in zip(w.names, w.kept, w.rest)
+                         if len(kept) == len(rest)}
+        self._partial = {name: (starts[name], kept, rest) for name, kept, rest in zip(w.names, w.kept, w.rest)
+                         if len(kept) < len(rest)}
         self._static = {name: obj.pos for name, obj in zip(self.world.static_names, self.world.static)}
         self.state = engine.reset(self.tables, self.body_index)
         self.init = self.state.pos.copy()
@@ -84,7 +87,8 @@ class TaskBatch:
     def frame(self, state: engine.State | None = None) -> Frame:
         state = self.state if state is None else state
         return Frame(pos=state.pos, vel=state.vel, init=self.init, robot_start=self.tables.robot_start,
-                     robot_count=self.robot_points, objects=self._objects, static=self._static)
+                     robot_count=self.robot_points, objects=self._objects, static=self._static,
+                     partial=self._partial)
 
     def _fresh_positions(self, mask: np.ndarray) -> np.ndarray:
         pos = self.tables.init_pos[self.body_index].copy()

@@ -51,6 +51,8 @@ class Terrain:
     boxel_points: np.ndarray
     boxel_edges: np.ndarray
     bbox: np.ndarray
+    owner: np.ndarray  # the moving object each boxel belongs to (pairs within one object count twice), or -1
+    link: np.ndarray  # (T, 4): each corner's index among the moving points, if it is one of them, else -1
     bin_start: np.ndarray  # ((columns * rows) + 1,): where each (column, row) bin's run in bin_boxel starts
     bin_boxel: np.ndarray
     rows: np.ndarray  # (1,): the number of rows of bins
@@ -58,28 +60,33 @@ class Terrain:
 
     def arrays(self) -> tuple:
         return (self.pos, self.edges, self.edge_surface, self.boxel_points, self.boxel_edges, self.bbox,
-                self.bin_start, self.bin_boxel, self.rows, self.zero)
+                self.owner, self.link, self.bin_start, self.bin_boxel, self.rows, self.zero)
 
 
-def terrain(objects: Sequence[Object]) -> Terrain:
-    """One static collider of fixed objects (their surface boxels, binned by the cell of their corner)."""
-    pos, edges, surf, points, boxel_edges = [], [], [], [], []
-    n_points = n_edges = 0
-    for obj in objects:
-        idx = np.flatnonzero(obj.boxel_surface)
-        pos.append(obj.pos)
-        edges.append(obj.edge_ab + n_points)
-        surf.append(obj.edge_surface)
-        points.append(obj.boxel_points[idx] + n_points)
-        boxel_edges.append(obj.boxel_edges[idx] + n_edges)
-        n_points += len(obj.pos)
-        n_edges += len(obj.edge_ab)
-    if not objects:  # no static object: one empty bin
+def terrain(parts: Sequence[tuple[Object, np.ndarray, int, np.ndarray | None]]) -> Terrain:
+    """One static collider: of each ``(object, boxels, owner, link)``, those boxels (surface ones), binned by
+    the cell of their corner.  ``owner`` is the moving object the boxels belong to (Evolution Gym meets pairs
+    within one object twice), or -1 for objects that never move; ``link[p]`` is where the object's point ``p``
+    is simulated, if it is (a corner shared with a moving boxel is not a contact), else -1."""
+    if not parts:  # no static object: one empty bin
         i64 = np.zeros(0, dtype=np.int64)
         return Terrain(pos=np.zeros((0, 2)), edges=np.zeros((0, 2), np.int64), edge_surface=np.zeros(0, np.bool_),
                        boxel_points=np.zeros((0, 4), np.int64), boxel_edges=np.zeros((0, 4), np.int64),
-                       bbox=np.zeros((0, 4)), bin_start=np.zeros(2, np.int64), bin_boxel=i64,
+                       bbox=np.zeros((0, 4)), owner=i64, link=np.zeros((0, 4), np.int64),
+                       bin_start=np.zeros(2, np.int64), bin_boxel=i64,
                        rows=np.ones(1, np.int64), zero=np.zeros((0, 2)))
+    pos, edges, surf, points, boxel_edges, owners, links = [], [], [], [], [], [], []
+    n_points = n_edges = 0
+    for obj, boxels, owner, link in parts:
+        links.append(np.full((len(boxels), 4), -1, dtype=np.int64) if link is None else link[obj.boxel_points[boxels]])
+        pos.append(obj.pos)
+        edges.append(obj.edge_ab + n_points)
+        surf.append(obj.edge_surface)
+        points.append(obj.boxel_points[boxels] + n_points)
+        boxel_edges.append(obj.boxel_edges[boxels] + n_edges)
+        owners.append(np.full(len(boxels), owner, dtype=np.int64))
+        n_points += len(obj.pos)
+        n_edges += len(obj.edge_ab)
     all_pos = np.concatenate(pos)
     boxel_points = np.concatenate(points)
     corners = all_pos[boxel_points]  # (n, 4, 2)
@@ -93,18 +100,72 @@ def terrain(objects: Sequence[Object]) -> Terrain:
     start = np.searchsorted(key[order], np.arange(n_bins + 1)).astype(np.int64)
     return Terrain(
         pos=all_pos, edges=np.concatenate(edges), edge_surface=np.concatenate(surf), boxel_points=boxel_points,
-        boxel_edges=np.concatenate(boxel_edges), bbox=bbox, bin_start=start, bin_boxel=order.astype(np.int64),
-        rows=np.array([n_rows], dtype=np.int64), zero=np.zeros_like(all_pos),
+        boxel_edges=np.concatenate(boxel_edges), bbox=bbox, owner=np.concatenate(owners),
+        link=np.concatenate(links), bin_start=start,
+        bin_boxel=order.astype(np.int64), rows=np.array([n_rows], dtype=np.int64), zero=np.zeros_like(all_pos),
     )
+
+
+def _subset(obj: Object, points: np.ndarray, boxels: np.ndarray) -> Object:
+    """``obj`` restricted to ``points`` (and the edges between them) and ``boxels`` (whose corners they hold)."""
+    new_index = np.full(len(obj.pos), -1, dtype=np.int64)
+    new_index[points] = np.arange(len(points))
+    edges = np.flatnonzero(np.all(new_index[obj.edge_ab] >= 0, axis=1))
+    new_edge = np.full(len(obj.edge_ab), -1, dtype=np.int64)
+    new_edge[edges] = np.arange(len(edges))
+    return Object(
+        pos=obj.pos[points], fixed=obj.fixed[points], edge_ab=new_index[obj.edge_ab[edges]],
+        edge_len=obj.edge_len[edges], edge_k=obj.edge_k[edges], edge_surface=obj.edge_surface[edges],
+        boxel_type=obj.boxel_type[boxels], boxel_cell=obj.boxel_cell[boxels],
+        boxel_points=new_index[obj.boxel_points[boxels]], boxel_edges=new_edge[obj.boxel_edges[boxels]],
+        boxel_surface=obj.boxel_surface[boxels], actuators=np.zeros(0, dtype=np.int64), width=obj.width,
+    )
+
+
+def _prune(obj: Object) -> tuple[Object, np.ndarray, np.ndarray]:
+    """The part of a moving object that must be simulated; which of its points that is; and the surface boxels
+    left out (static colliders from now on).
+
+    A fixed point never moves, but RK4 moves it through its stages, and a point it shares a spring with feels
+    that: its position in stages 3 and 4 depends on its accelerations in stages 1 and 2, which depend on its
+    own springs at the stage's positions (its fixed neighbours have not moved yet then) and on the collision
+    forces on it.  So the moving points (M), the fixed points sharing a spring with them (R1, simulated with
+    their collisions) and the fixed points sharing one with those (R2, held where they rest) give M exactly
+    Evolution Gym's trajectory; a boxel without a corner in M or R1 collides as a static one.  An object
+    whose rigid voxels touch fixed ones is kept whole: Evolution Gym's rigid pass moves fixed points.
+    """
+    everything = np.arange(len(obj.pos))
+    rigid = obj.boxel_points[obj.boxel_type == RIGID]
+    if not obj.fixed.any() or obj.fixed[rigid].any():
+        return obj, everything, np.zeros(0, dtype=np.int64)
+
+    def ring(inner: np.ndarray) -> np.ndarray:
+        touch = np.zeros(len(obj.pos), dtype=bool)
+        a, b = obj.edge_ab[:, 0], obj.edge_ab[:, 1]
+        touch[b[inner[a]]] = True
+        touch[a[inner[b]]] = True
+        return touch & ~inner
+
+    moving = ~obj.fixed
+    r1 = ring(moving)
+    near = moving | r1
+    keep_points = np.flatnonzero(near | ring(near))
+    keep = near[obj.boxel_points].any(axis=1)
+    removed = np.flatnonzero(~keep & obj.boxel_surface)
+    return _subset(obj, keep_points, np.flatnonzero(keep)), keep_points, removed
 
 
 @dataclass(frozen=True)
 class World:
     """A task's world without its robot: the objects simulated in every environment, the static ones, and
-    where the robot goes.  ``moving`` objects are numbered as if created after the robot (never index 0)."""
+    where the robot goes.  ``moving`` objects are numbered as if created after the robot (never index 0);
+    of a moving object with fixed voxels only the part that can affect its moving points is simulated
+    (``kept[k]``: which of its points; ``rest[k]``: where all of them rest)."""
 
     names: tuple[str, ...]  # the moving objects' names, in order
-    moving: tuple[Object, ...]
+    moving: tuple[Object, ...]  # the simulated part of each
+    kept: tuple[np.ndarray, ...]
+    rest: tuple[np.ndarray, ...]
     static_names: tuple[str, ...]
     static: tuple[Object, ...]
     terrain: Terrain
@@ -113,7 +174,7 @@ class World:
 
     @property
     def point_starts(self) -> dict[str, int]:
-        """Where each moving object's points start in an environment's point arrays."""
+        """Where each moving object's (simulated) points start in an environment's point arrays."""
         starts, n = {}, 0
         for name, obj in zip(self.names, self.moving):
             starts[name] = n
@@ -130,21 +191,43 @@ def world(objects: Mapping[str, tuple[np.ndarray, tuple[int, int]]], robot_at: t
     """A world of named objects (cells with rows top to bottom, bottom-left voxel), in Evolution Gym's order
     (by name).  Objects with any non-fixed voxel, and those named in ``moving`` (placed per environment),
     are simulated; the rest are one static collider."""
-    names, built, static_names, static = [], [], [], []
+    names: list[str] = []
+    static_names: list[str] = []
+    built: list[Object] = []
+    static: list[Object] = []
+    kept: list[np.ndarray] = []
+    rest: list[np.ndarray] = []
+    colliders: list[tuple[Object, np.ndarray, int, np.ndarray | None]] = []
+    removed_parts: list[tuple[int, Object, np.ndarray]] = []
     grids = {}
     for name in sorted(objects):
         grid, at = objects[name]
         grid = np.asarray(grid, dtype=np.int64)
         grids[name] = grid
         obj = build_object(grid, at, point_offset=1, edge_offset=1)
-        if name in moving or not np.all(grid[grid != 0] == FIXED):
-            names.append(name)
-            built.append(obj)
-        else:
+        if name in moving:  # placed per environment: simulated whole
+            part, points, removed = obj, np.arange(len(obj.pos)), np.zeros(0, dtype=np.int64)
+        elif np.all(grid[grid != 0] == FIXED):
             static_names.append(name)
             static.append(obj)
-    return World(names=tuple(names), moving=tuple(built), static_names=tuple(static_names), static=tuple(static),
-                 terrain=terrain(static), robot_at=robot_at, grids=grids)
+            colliders.append((obj, np.flatnonzero(obj.boxel_surface), -1, None))
+            continue
+        else:
+            part, points, removed = _prune(obj)
+        if len(removed):
+            removed_parts.append((len(names), obj, removed))
+        names.append(name)
+        built.append(part)
+        kept.append(points)
+        rest.append(obj.pos)
+    start = np.concatenate([[0], np.cumsum([len(part.pos) for part in built])])
+    for k, obj, removed in removed_parts:  # the object's simulated points, as every environment numbers them
+        link = np.full(len(obj.pos), -1, dtype=np.int64)
+        link[kept[k]] = start[k] + np.arange(len(kept[k]))
+        colliders.append((obj, removed, k, link))
+    return World(names=tuple(names), moving=tuple(built), kept=tuple(kept), rest=tuple(rest),
+                 static_names=tuple(static_names), static=tuple(static), terrain=terrain(colliders),
+                 robot_at=robot_at, grids=grids)
 
 
 #: Walker-v0's world: a row of 100 fixed voxels, the robot at voxel (1, 1)
@@ -170,10 +253,15 @@ class BodyTables:
     act_edges: np.ndarray  # (B, A, 2): the two edges each actuator drives
     n_surface: np.ndarray
     n_robot_surface: np.ndarray  # the robot's surface boxels come first; its unstable threshold
+    surface_owner: np.ndarray  # (B, S): the moving object each surface boxel belongs to (the robot: after them)
     surface_points: np.ndarray  # (B, S, 4)
     surface_edges: np.ndarray  # (B, S, 4)
     n_pairs: np.ndarray
     pairs: np.ndarray  # (B, Q, 5): surface boxels i < j, pair kind, corners of i (bits) not in j, of j not in i
+    n_groups: np.ndarray
+    group_start: np.ndarray  # (B, G + 1): where each group of surface boxels starts (the robot: group 0)
+    n_group_pairs: np.ndarray
+    group_pairs: np.ndarray  # (B, GP, 4): groups g1 <= g2 and the run of ``pairs`` between them
     n_rigid: np.ndarray
     rigid_edges: np.ndarray  # (B, R, 4)
     point_edges: np.ndarray  # (B, 2E): per point, its edges where it is end a, then where it is end b
@@ -242,61 +330,101 @@ def _unshared(main: np.ndarray, ref: np.ndarray) -> int:
     return sum(1 << k for k in range(4) if main[k] not in ref)
 
 
+#: a moving object's surface boxels are grouped by blocks of this many cells a side: pairs of groups whose
+#: bounding boxes are apart are skipped at once (the robot is one group, tested pair by pair as always)
+BLOCK = 3
+
+
 @dataclass(frozen=True)
 class _Part:
-    """One object placed in an environment's arrays: its surface boxels' rows and global indices."""
+    """One object placed in an environment's arrays: its surface boxels (in group order) and their groups."""
 
     obj: Object
+    owner: int  # its index among the environment's objects (the robot: last)
     point0: int
     edge0: int
-    surface: np.ndarray  # its surface boxels (indices into obj's boxels)
-    surface0: int  # where they start in the environment's surface list
+    surface: np.ndarray  # its surface boxels (indices into obj's boxels), group by group
+    groups: list[np.ndarray]  # positions in ``surface`` of each group's boxels
+    surface0: int = 0  # where they start in the environment's surface list
 
 
-def _pairs(parts: Sequence[_Part], robot: int) -> np.ndarray:
-    """Candidate boxel pairs: within each object (the robot's first, kind by adjacency), then between objects.
+def _part(obj: Object, owner: int, point0: int, edge0: int, whole: bool) -> _Part:
+    surface = np.flatnonzero(obj.boxel_surface)
+    if whole:
+        return _Part(obj, owner, point0, edge0, surface, [np.arange(len(surface))])
+    block = obj.boxel_cell[surface] // BLOCK
+    key = block[:, 0] * 100_000 + block[:, 1]
+    order = np.argsort(key, kind="stable")
+    surface, key = surface[order], key[order]
+    cuts = np.flatnonzero(np.diff(key)) + 1
+    return _Part(obj, owner, point0, edge0, surface, np.split(np.arange(len(surface)), cuts))
 
-    Pairs whose eight corners are all fixed are left out: their forces land on fixed points only."""
-    rows = []
+
+def _pairs(parts: Sequence[_Part], robot: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Candidate boxel pairs, grouped: the surface list's group boundaries, and for every pair of groups
+    ``(g1, g2, first pair, end)`` into the pair rows ``(i, j, kind, corners of i not in j, of j not in i)``.
+
+    The robot's own pairs come first (kind by adjacency), then each object's, then pairs across objects.
+    Pairs whose eight corners are all fixed are left out: their forces land on points that cannot move them."""
+    order = [robot] + [k for k in range(len(parts)) if k != robot]
+    starts, group_of = [0], {}
+    for k in order:
+        for g, members in enumerate(parts[k].groups):
+            group_of[k, g] = len(starts) - 1
+            starts.append(starts[-1] + len(members))
 
     def pinned(part: _Part, s: int) -> bool:
         return bool(np.all(part.obj.fixed[part.obj.boxel_points[part.surface[s]]]))
 
-    order = [robot] + [i for i in range(len(parts)) if i != robot]
-    for k in order:
-        part = parts[k]
-        cells, corners = part.obj.boxel_cell[part.surface], part.obj.boxel_points[part.surface]
-        for i in range(len(part.surface)):
-            for j in range(i + 1, len(part.surface)):
-                if k == robot:
-                    kind = ROBOT_ADJACENT if np.all(np.abs(cells[i] - cells[j]) <= 1) else ROBOT_APART
-                elif pinned(part, i) and pinned(part, j):
+    rows: list[tuple[int, int, int, int, int]] = []
+    group_pairs: list[tuple[int, int, int, int]] = []
+
+    def add(pa: _Part, ga: int, pb: _Part, gb: int) -> None:
+        first = len(rows)
+        same = pa is pb
+        cells_a, corners_a = pa.obj.boxel_cell[pa.surface], pa.obj.boxel_points[pa.surface]
+        cells_b, corners_b = pb.obj.boxel_cell[pb.surface], pb.obj.boxel_points[pb.surface]
+        for i in pa.groups[ga]:
+            for j in pb.groups[gb]:
+                if same and j <= i:
+                    continue
+                if same and pa.owner == robot:
+                    kind = ROBOT_ADJACENT if np.all(np.abs(cells_a[i] - cells_b[j]) <= 1) else ROBOT_APART
+                elif pinned(pa, i) and pinned(pb, j):
                     continue
                 else:
-                    kind = SAME_OBJECT
-                rows.append((part.surface0 + i, part.surface0 + j, kind,
-                             _unshared(corners[i], corners[j]), _unshared(corners[j], corners[i])))
-    for a in range(len(order)):
+                    kind = SAME_OBJECT if same else TWO_OBJECTS
+                mask_a = _unshared(corners_a[i], corners_b[j]) if same else 15
+                mask_b = _unshared(corners_b[j], corners_a[i]) if same else 15
+                rows.append((pa.surface0 + i, pb.surface0 + j, kind, mask_a, mask_b))
+        if len(rows) > first:
+            group_pairs.append((group_of[pa.owner, ga], group_of[pb.owner, gb], first, len(rows)))
+
+    for k in order:  # within each object
+        part = parts[k]
+        for ga in range(len(part.groups)):
+            for gb in range(ga, len(part.groups)):
+                add(part, ga, part, gb)
+    for a in range(len(order)):  # across objects
         for b in range(a + 1, len(order)):
             pa, pb = parts[order[a]], parts[order[b]]
-            for i in range(len(pa.surface)):
-                for j in range(len(pb.surface)):
-                    if pinned(pa, i) and pinned(pb, j):
-                        continue
-                    rows.append((pa.surface0 + i, pb.surface0 + j, TWO_OBJECTS, 15, 15))
-    return np.array(rows, dtype=np.int64).reshape(-1, 5)
+            for ga in range(len(pa.groups)):
+                for gb in range(len(pb.groups)):
+                    add(pa, ga, pb, gb)
+    return (np.array(rows, dtype=np.int64).reshape(-1, 5), np.array(starts, dtype=np.int64),
+            np.array(group_pairs, dtype=np.int64).reshape(-1, 4))
 
 
 def _assemble(w: World, robot: Object) -> dict[str, np.ndarray]:
     """One environment's arrays: the world's moving objects, then the robot."""
     parts: list[_Part] = []
-    point0 = edge0 = surface0 = 0
+    point0 = edge0 = 0
     for obj in (*w.moving, robot):
-        surface = np.flatnonzero(obj.boxel_surface)
-        parts.append(_Part(obj, point0, edge0, surface, 0))
+        parts.append(_part(obj, len(parts), point0, edge0, whole=obj is robot))
         point0 += len(obj.pos)
         edge0 += len(obj.edge_ab)
     robot_index = len(parts) - 1
+    surface0 = 0
     for k in [robot_index] + list(range(robot_index)):  # the robot's surface boxels first
         parts[k] = replace(parts[k], surface0=surface0)
         surface0 += len(parts[k].surface)
@@ -308,7 +436,7 @@ def _assemble(w: World, robot: Object) -> dict[str, np.ndarray]:
         top, right, bot, left = robot.boxel_edges[a] + parts[robot_index].edge0
         assert robot.boxel_type[a] in (H_ACT, V_ACT)
         acts.append((top, bot) if robot.boxel_type[a] == H_ACT else (left, right))
-    n_points = point0
+    pairs, group_start, group_pairs = _pairs(parts, robot_index)
     return {
         "edges": edge_ab,
         "rest0": np.concatenate([p.obj.edge_len for p in parts]),
@@ -316,11 +444,14 @@ def _assemble(w: World, robot: Object) -> dict[str, np.ndarray]:
         "edge_surface": np.concatenate([p.obj.edge_surface for p in parts]),
         "fixed": np.concatenate([p.obj.fixed for p in parts]),
         "act_edges": np.array(acts, dtype=np.int64).reshape(-1, 2),
+        "surface_owner": np.concatenate([np.full(len(p.surface), p.owner) for p in by_surface]),
         "surface_points": np.concatenate([p.obj.boxel_points[p.surface] + p.point0 for p in by_surface]),
         "surface_edges": np.concatenate([p.obj.boxel_edges[p.surface] + p.edge0 for p in by_surface]),
-        "pairs": _pairs(parts, robot_index),
+        "pairs": pairs,
+        "group_start": group_start,
+        "group_pairs": group_pairs,
         "rigid_edges": rigid.reshape(-1, 4),
-        "incidence": _incidence(edge_ab, n_points),  # type: ignore[dict-item]
+        "incidence": _incidence(edge_ab, point0),  # type: ignore[dict-item]
         "init_pos": np.concatenate([p.obj.pos for p in parts]),
         "n_robot_surface": np.array(len(parts[robot_index].surface)),
     }
@@ -341,6 +472,8 @@ def body_tables(bodies: Sequence[Body | np.ndarray | str], w: World = WALKER_WOR
     S = size("surface_points", padded=None if pad is None else pad.surface_points)
     Q = size("pairs", padded=None if pad is None else pad.pairs)
     R = size("rigid_edges", padded=None if pad is None else pad.rigid_edges)
+    G = size("group_start", padded=None if pad is None else pad.group_start)
+    GP = size("group_pairs", padded=None if pad is None else pad.group_pairs)
     A = size("act_edges", padded=None if pad is None else pad.act_edges)
     i64 = np.int64
 
@@ -363,10 +496,15 @@ def body_tables(bodies: Sequence[Body | np.ndarray | str], w: World = WALKER_WOR
         act_edges=stack("act_edges", (A, 2), i64),
         n_surface=np.array([len(r["surface_points"]) for r in rows], dtype=i64),
         n_robot_surface=np.array([int(r["n_robot_surface"]) for r in rows], dtype=i64),
+        surface_owner=stack("surface_owner", (S,), i64, -2),
         surface_points=stack("surface_points", (S, 4), i64),
         surface_edges=stack("surface_edges", (S, 4), i64),
         n_pairs=np.array([len(r["pairs"]) for r in rows], dtype=i64),
         pairs=stack("pairs", (Q, 5), i64),
+        n_groups=np.array([len(r["group_start"]) - 1 for r in rows], dtype=i64),
+        group_start=stack("group_start", (G,), i64),
+        n_group_pairs=np.array([len(r["group_pairs"]) for r in rows], dtype=i64),
+        group_pairs=stack("group_pairs", (GP, 4), i64),
         n_rigid=np.array([len(r["rigid_edges"]) for r in rows], dtype=i64),
         rigid_edges=stack("rigid_edges", (R, 4), i64),
         point_edges=_pad([r["incidence"][0] for r in rows], (2 * E,), i64),
@@ -384,13 +522,14 @@ def reset(tables: BodyTables, body: np.ndarray, init_pos: np.ndarray | None = No
     return State(pos=pos, vel=np.zeros_like(pos), vtrue=np.zeros_like(pos), body=body)
 
 
-def kernel_args(tables: BodyTables) -> tuple:
-    """The tables' and terrain's arrays in the order the kernels take them (after the state)."""
-    return (tables.n_points, tables.n_edges, tables.edges, tables.rest0, tables.spring_k, tables.edge_surface,
+def kernel_args(tables: BodyTables) -> tuple[tuple, tuple]:
+    """The tables' arrays and the terrain's, as the kernels take them (after the state)."""
+    body = (tables.n_points, tables.n_edges, tables.edges, tables.rest0, tables.spring_k, tables.edge_surface,
             tables.fixed, tables.n_act, tables.act_edges, tables.n_surface, tables.n_robot_surface,
-            tables.surface_points, tables.surface_edges, tables.n_pairs, tables.pairs, tables.n_rigid,
-            tables.rigid_edges, tables.point_edges, tables.point_start, tables.point_n_a,
-            *tables.world.terrain.arrays())
+            tables.surface_owner, tables.surface_points, tables.surface_edges, tables.pairs, tables.n_groups,
+            tables.group_start, tables.n_group_pairs, tables.group_pairs, tables.n_rigid, tables.rigid_edges,
+            tables.point_edges, tables.point_start, tables.point_n_a)
+    return body, tables.world.terrain.arrays()
 
 
 def step(tables: BodyTables, state: State, actions: np.ndarray,
@@ -408,6 +547,8 @@ def step(tables: BodyTables, state: State, actions: np.ndarray,
     unstable = np.zeros(n, dtype=np.bool_)
     work = kernels.workspace(n, tables.max_points, tables.edges.shape[1], tables.surface_points.shape[1])
     kernel: Any = kernels.step_parallel if n >= PARALLEL_FROM and numba.get_num_threads() > 1 else kernels.step_serial
-    kernel(active, state.body, np.ascontiguousarray(acts), new.pos, new.vel, new.vtrue, *kernel_args(tables),
-           unstable, *work)
+    body, terrain = kernel_args(tables)
+    assert len(body) == kernels.BODY_ARRAYS
+    kernel(active, state.body, np.ascontiguousarray(acts), new.pos, new.vel, new.vtrue, unstable, *work, *body,
+           *terrain)
     return new, StepOutput(unstable=unstable)

@@ -45,32 +45,25 @@ def _step_kernel(max_points: int, max_edges: int, max_surface: int) -> Any:
     point_temps, edge_temps, spring_temps = kernels.POINT_TEMPS, kernels.EDGE_TEMPS, kernels.SPRING_TEMPS  # constants
 
     @cuda.jit
-    def kernel(active, body, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, fixed,
-               n_act, act_edges, n_surface, n_robot_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid,
-               rigid_edges, point_edges, point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tbin_start,
-               tbin_boxel, trows, tzero, unstable):
+    def kernel(active, index, actions, pos, vel, vt, unstable, body, terrain):
         i = cuda.grid(1)
         if i >= active.shape[0] or not active[i]:
             return
         wp = cuda.local.array((point_temps, max_points, 2), f64)
         we = cuda.local.array((edge_temps, max_edges, 2), f64)
         ws = cuda.local.array((spring_temps, max_edges), f64)
-        wb = cuda.local.array((max_surface, 4), f64)
+        wb = cuda.local.array((2, max_surface, 4), f64)
         lp = cuda.local.array((max_points, 2), f64)
         lv = cuda.local.array((max_points, 2), f64)
         lt = cuda.local.array((max_points, 2), f64)
-        b = body[i]
-        n = n_points[b]
+        b = index[i]
+        n = body[0][b]
         for m in range(n):
             for c in range(2):
                 lp[m, c] = pos[i, m, c]
                 lv[m, c] = vel[i, m, c]
                 lt[m, c] = vt[i, m, c]
-        unstable[i] = kernels.step_env(
-            b, actions[i], lp, lv, lt, n_points, n_edges, edges, rest0, spring_k, edge_surface, fixed, n_act,
-            act_edges, n_surface, n_robot_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid,
-            rigid_edges, point_edges, point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tbin_start,
-            tbin_boxel, trows, tzero, wp, we, ws, wb)
+        unstable[i] = kernels.step_env(b, actions[i], lp, lv, lt, body, terrain, wp, we, ws, wb)
         for m in range(n):
             for c in range(2):
                 pos[i, m, c] = lp[m, c]
@@ -149,6 +142,6 @@ def step(dev: DeviceEngine, state: State, actions: Any, active: Any = None) -> t
         active = cuda.to_device(np.ascontiguousarray(active, dtype=np.bool_))
     new = replace(state, pos=_copy(state.pos), vel=_copy(state.vel), vtrue=_copy(state.vtrue))
     out = StepOutput(unstable=_zeros((n,), np.bool_))
-    args = (active, state.body, acts, new.pos, new.vel, new.vtrue, *kernel_args(t), out.unstable)
+    args = (active, state.body, acts, new.pos, new.vel, new.vtrue, out.unstable, *kernel_args(t))
     _step_kernel(t.max_points, t.edges.shape[1], t.surface_points.shape[1])[_blocks(n), THREADS](*args)
     return new, out

@@ -241,13 +241,38 @@ def _accelerations(xp, xv, cforce, n, fe, inc, start, n_a, out_a):
         out_a[i, 1] = fy / 1.0
 
 
+@_inline
+def _pair(q, pairs, pos, vt, cf, ea, esurf, sbp, sbe, bb):
+    """``PhysicsEngine::resolve_boxel_collisions`` both ways for boxel pair ``q``: every tested corner of one
+    boxel inside the other is pushed out.  Returns what the pair adds to the robot's count of overlapping
+    non-adjacent pairs (2: the bounding-box tree meets a pair of one object twice, as (i, j) and (j, i))."""
+    i = pairs[q, 0]
+    j = pairs[q, 1]
+    if bb[i, 0] > bb[j, 2] or bb[i, 2] < bb[j, 0] or bb[i, 1] > bb[j, 3] or bb[i, 3] < bb[j, 1]:
+        return 0  # BoundingBox::in: the boxes neither overlap nor touch
+    kind = pairs[q, 2]
+    times = 1 if kind == 3 else 2  # pairs within one object are met twice, each resolving both ways
+    for d in range(2):
+        m, r = (i, j) if d == 0 else (j, i)
+        mask = pairs[q, 3 + d]
+        cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3 = _corners(pos, sbp, r)
+        for corner in range(4):
+            p = sbp[m, corner]
+            if (mask >> corner) & 1 and _inside(pos[p, 0], pos[p, 1], cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3,
+                                           bb[r, 0], bb[r, 1], bb[r, 2], bb[r, 3]):
+                _resolve_point(p, sbe, m, corner, pos, ea, vt, cf, True, sbe, r, pos, ea, esurf, vt, cf, True, times)
+    return 2 if kind == 0 else 0
+
+
 @_jit
-def _substep(n, ne, ea, rest0, k, esurf, fixed, goal, ns, sbp, sbe, npairs, pairs, nr, rig, inc, start, n_a, terrain,
-             pos, vel, vt, s):
+def _substep(n, ne, ea, rest0, k, esurf, fixed, goal, ns, sown, sbp, sbe, pairs, ng, gstart, ngp, gpairs, nr, rig, inc,
+             start, n_a, terrain, pos, vel, vt, s):
     """``Environment::step``: one physics update of dt 1e-4.  Returns the count of overlapping
     non-adjacent surface boxel pairs of the robot (ordered, as Evolution Gym counts them) seen at its start."""
-    tpos, tedge, tsurf, tbp, tbe, tbb, tbin_start, tbin_boxel, trows, tzero = terrain
-    cf, bb, rest, fe, x0, v0, xs, vs, acc, sp, sv, corr = s
+    tpos, tedge, tsurf, tbp, tbe, tbb, town, tlink, tbin_start, tbin_boxel, trows, tzero = terrain
+    cf, boxes, rest, fe, x0, v0, xs, vs, acc, sp, sv, corr = s
+    bb = boxes[0]
+    gb = boxes[1]
     # collisions, from the positions and true velocities at the start of the update
     for q in range(ns):
         for c in range(2):
@@ -259,31 +284,25 @@ def _substep(n, ne, ea, rest0, k, esurf, fixed, goal, ns, sbp, sbe, npairs, pair
                 hi = max(hi, v)
             bb[q, c] = lo
             bb[q, 2 + c] = hi
+    for g in range(ng):  # each group's box: the union of its boxels'
+        for c in range(4):
+            gb[g, c] = bb[gstart[g], c]
+        for q in range(gstart[g] + 1, gstart[g + 1]):
+            for c in range(2):
+                gb[g, c] = min(gb[g, c], bb[q, c])
+                gb[g, 2 + c] = max(gb[g, 2 + c], bb[q, 2 + c])
     for i in range(n):
         cf[i, 0] = 0.0
         cf[i, 1] = 0.0
     count = 0
-    for q in range(npairs):
-        i = pairs[q, 0]
-        j = pairs[q, 1]
-        if bb[i, 0] > bb[j, 2] or bb[i, 2] < bb[j, 0] or bb[i, 1] > bb[j, 3] or bb[i, 3] < bb[j, 1]:
-            continue  # BoundingBox::in: the boxes neither overlap nor touch
-        kind = pairs[q, 2]
-        if kind == 0:  # two of the robot's boxels, not grid neighbours
-            count += 2
-        # PhysicsEngine::resolve_boxel_collisions both ways: every tested corner of one boxel inside the
-        # other is pushed out; the bounding-box tree meets a pair of one object twice, as (i, j) and (j, i)
-        times = 1 if kind == 3 else 2
-        for d in range(2):
-            m, r = (i, j) if d == 0 else (j, i)
-            mask = pairs[q, 3 + d]
-            cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3 = _corners(pos, sbp, r)
-            for corner in range(4):
-                p = sbp[m, corner]
-                if (mask >> corner) & 1 and _inside(pos[p, 0], pos[p, 1], cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3,
-                                               bb[r, 0], bb[r, 1], bb[r, 2], bb[r, 3]):
-                    _resolve_point(p, sbe, m, corner, pos, ea, vt, cf, True, sbe, r, pos, ea, esurf, vt, cf, True,
-                                   times)
+    for h in range(ngp):
+        g1 = gpairs[h, 0]
+        g2 = gpairs[h, 1]
+        if g1 != g2 and (gb[g1, 0] > gb[g2, 2] or gb[g1, 2] < gb[g2, 0] or gb[g1, 1] > gb[g2, 3]
+                         or gb[g1, 3] < gb[g2, 1]):
+            continue  # no boxel of one group can touch one of the other
+        for q in range(gpairs[h, 2], gpairs[h, 3]):
+            count += _pair(q, pairs, pos, vt, cf, ea, esurf, sbp, sbe, bb)
     nrow = trows[0]
     ncol = (tbin_start.shape[0] - 1) // nrow
     for q in range(ns):
@@ -300,21 +319,29 @@ def _substep(n, ne, ea, rest0, k, esurf, fixed, goal, ns, sbp, sbe, npairs, pair
                 t = tbin_boxel[m]
                 if bb[q, 0] > tbb[t, 2] or bb[q, 2] < tbb[t, 0] or bb[q, 1] > tbb[t, 3] or bb[q, 3] < tbb[t, 1]:
                     continue  # BoundingBox::in: the boxes neither overlap nor touch
-                # the robot's corners inside the terrain boxel, then the terrain's inside the robot's
+                # the moving boxel's corners inside the static one, then the static one's inside the moving one
+                own = town[t] == sown[q]  # a static part of the moving boxel's own object: met twice, and corners
+                times = 2 if own else 1  # the two share are no contact
                 cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3 = _corners(tpos, tbp, t)
                 for corner in range(4):
                     p = sbp[q, corner]
+                    if own and (p == tlink[t, 0] or p == tlink[t, 1] or p == tlink[t, 2] or p == tlink[t, 3]):
+                        continue
                     if _inside(pos[p, 0], pos[p, 1], cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3,
                                tbb[t, 0], tbb[t, 1], tbb[t, 2], tbb[t, 3]):
                         _resolve_point(p, sbe, q, corner, pos, ea, vt, cf, True, tbe, t, tpos, tedge, tsurf, tzero,
-                                       tzero, False, 1)
+                                       tzero, False, times)
                 cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3 = _corners(pos, sbp, q)
                 for corner in range(4):
                     p = tbp[t, corner]
+                    link = tlink[t, corner]
+                    if own and link >= 0 and (link == sbp[q, 0] or link == sbp[q, 1] or link == sbp[q, 2]
+                                              or link == sbp[q, 3]):
+                        continue
                     if _inside(tpos[p, 0], tpos[p, 1], cx0, cy0, cx1, cy1, cx2, cy2, cx3, cy3,
                                bb[q, 0], bb[q, 1], bb[q, 2], bb[q, 3]):
                         _resolve_point(p, tbe, t, corner, tpos, tedge, tzero, tzero, False, sbe, q, pos, ea, esurf, vt,
-                                       cf, True, 1)
+                                       cf, True, times)
     # rest lengths re-anchored towards their goals; the lengths they are measured from are those of
     # RK4's first stage (its positions are these), so that stage's spring forces are computed here too
     for j in range(ne):
@@ -411,19 +438,19 @@ def _substep(n, ne, ea, rest0, k, esurf, fixed, goal, ns, sbp, sbe, npairs, pair
 
 
 @_jit
-def step_env(b, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, fixed, n_act, act_edges,
-             n_surface, n_robot_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid, rigid_edges,
-             point_edges, point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tbin_start, tbin_boxel, trows,
-             tzero, wp, we, ws, wb):
+def step_env(b, actions, pos, vel, vt, body, terrain, wp, we, ws, wb):
     """One env step (30 updates) of one environment of body ``b``, in place; returns whether it became unstable.
 
     ``actions`` and ``pos``/``vel``/``vt`` (points x 2) are the environment's own rows; actions are
-    clipped to [0.6, 1.6] here.  An environment that becomes unstable is put back to its state before
-    the step, as Evolution Gym's snapshots are.  Nothing is allocated: every temporary lives in
-    ``wp``/``we``/``ws``/``wb`` (one environment's share of :func:`workspace`), so the same function
-    compiles for a CUDA thread, whose caller can keep them in the thread's local memory.
+    clipped to [0.6, 1.6] here; ``body`` and ``terrain`` are the tables' arrays (:func:`engine.kernel_args`).
+    An environment that becomes unstable is put back to its state before the step, as Evolution Gym's
+    snapshots are.  Nothing is allocated: every temporary lives in ``wp``/``we``/``ws``/``wb`` (one
+    environment's share of :func:`workspace`), so the same function compiles for a CUDA thread, whose caller
+    can keep them in the thread's local memory.
     """
-    terrain = (tpos, tedge, tsurf, tbp, tbe, tbb, tbin_start, tbin_boxel, trows, tzero)
+    (n_points, n_edges, edges, rest0, spring_k, edge_surface, fixed, n_act, act_edges, n_surface, n_robot_surface,
+     surface_owner, surface_points, surface_edges, pairs, n_groups, group_start, n_group_pairs, group_pairs, n_rigid,
+     rigid_edges, point_edges, point_start, point_n_a) = body
     p0 = wp[8]
     v0 = wp[9]
     t0 = wp[10]
@@ -459,9 +486,10 @@ def step_env(b, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k
             v0[m, c] = vel[m, c]
             t0[m, c] = vt[m, c]
     for _ in range(SUBSTEPS):
-        c = _substep(n, ne, ea, r0, spring_k[b], edge_surface[b], fixed[b], goal, n_surface[b], surface_points[b],
-                     surface_edges[b], n_pairs[b], pairs[b], n_rigid[b], rigid_edges[b], point_edges[b],
-                     point_start[b], point_n_a[b], terrain, pos, vel, vt, scratch)
+        c = _substep(n, ne, ea, r0, spring_k[b], edge_surface[b], fixed[b], goal, n_surface[b], surface_owner[b],
+                     surface_points[b], surface_edges[b], pairs[b], n_groups[b], group_start[b], n_group_pairs[b],
+                     group_pairs[b], n_rigid[b], rigid_edges[b], point_edges[b], point_start[b], point_n_a[b], terrain,
+                     pos, vel, vt, scratch)
         if c > n_robot_surface[b]:
             for m in range(n):
                 for d in range(2):
@@ -478,27 +506,28 @@ POINT_TEMPS, EDGE_TEMPS, SPRING_TEMPS = 11, 2, 3
 
 
 def workspace(n: int, points: int, edges: int, surface: int) -> tuple[np.ndarray, ...]:
-    """Temporaries of :func:`step_env` for ``n`` environments on the CPU."""
+    """Temporaries of :func:`step_env` for ``n`` environments on the CPU (boxes: the surface boxels', then
+    their groups')."""
     return (np.empty((n, POINT_TEMPS, points, 2)), np.empty((n, EDGE_TEMPS, edges, 2)),
-            np.empty((n, SPRING_TEMPS, edges)), np.empty((n, surface, 4)))
+            np.empty((n, SPRING_TEMPS, edges)), np.empty((n, 2, surface, 4)))
+
+
+#: how many of the arrays after the work arrays are the body tables' (the rest are the terrain's)
+BODY_ARRAYS = 24
 
 
 @_jit
-def _step_row(i, active, body, actions, pos, vel, vt, n_points, n_edges, edges, rest0, spring_k, edge_surface, fixed,
-              n_act, act_edges, n_surface, n_robot_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid,
-              rigid_edges, point_edges, point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tbin_start,
-              tbin_boxel, trows, tzero, unstable, work_points, work_edges, work_springs, work_boxes):
+def _step_row(i, active, index, actions, pos, vel, vt, unstable, work_points, work_edges, work_springs, work_boxes,
+              *tables):
     if active[i]:
-        unstable[i] = step_env(
-            body[i], actions[i], pos[i], vel[i], vt[i], n_points, n_edges, edges, rest0, spring_k, edge_surface, fixed,
-            n_act, act_edges, n_surface, n_robot_surface, surface_points, surface_edges, n_pairs, pairs, n_rigid,
-            rigid_edges, point_edges, point_start, point_n_a, tpos, tedge, tsurf, tbp, tbe, tbb, tbin_start,
-            tbin_boxel, trows, tzero, work_points[i], work_edges[i], work_springs[i], work_boxes[i])
+        unstable[i] = step_env(index[i], actions[i], pos[i], vel[i], vt[i], tables[:BODY_ARRAYS], tables[BODY_ARRAYS:],
+                               work_points[i], work_edges[i], work_springs[i], work_boxes[i])
 
 
 @numba.njit(cache=True, error_model="numpy", boundscheck=False, parallel=True)
 def step_parallel(active, *args):
-    """:func:`step_env` for every active environment, one thread per environment."""
+    """:func:`step_env` for every active environment, one thread per environment (arrays flat: a parallel
+    loop takes no tuple of arrays)."""
     for i in numba.prange(active.shape[0]):
         _step_row(i, active, *args)
 
