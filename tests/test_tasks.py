@@ -40,7 +40,8 @@ def replay(key: str) -> dict[str, list[float]]:
     batch = TaskBatch(task, [str(data["body"])])
     batch.seed([0])
     size = batch.obs_sizes[0]
-    obs = batch.reset()[0, :size]
+    setup = {k: data[k].tolist() for k in ("offset", "goals") if k in data}  # Evolution Gym's random draw
+    obs = batch.reset(options=setup)[0, :size]
     gaps = {"start": [float(np.abs(obs - data["obs0"]).max())] + [
         float(np.abs(object_points(batch, k.removeprefix("pos0/")) - v).max())
         for k, v in data.items() if k.startswith("pos0/")]}
@@ -76,3 +77,4 @@ def test_the_fixture_records_two_bodies_of_every_task_defined_here():
         defined.add(name)
     assert recorded == defined
     assert all(f"{name}/1" in RECORDINGS for name in recorded)
+
