@@ -81,7 +81,8 @@ class BidirectionalWalkerV0(Task):
         return values.tolist()
 
     def target(self, goal: np.ndarray) -> np.ndarray:
-        """Goal ``goal[i]`` of each environment, in metres."""
+        """Goal ``goal[i]`` of each environment, in metres (the last one past the end: Evolution Gym's
+        ``get_obs`` fails there, which only a step after the episode ended reaches, and those are not taken)."""
         index = np.minimum(goal, self.n_goals - 1)
         return self.goals[np.arange(self.n), index] * 0.1
 
