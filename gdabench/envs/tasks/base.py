@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 from functools import cache
 from importlib.resources import files
-from typing import Any, ClassVar, Sequence, Union
+from typing import Any, ClassVar, Mapping, Sequence, Union
 
 import numba
 import numpy as np
@@ -59,6 +59,8 @@ class Task:
     robot_at: ClassVar[tuple[int, int]]
     #: objects simulated in every environment although made of fixed voxels (placed per environment)
     moving: ClassVar[tuple[str, ...]] = ()
+    #: what a user may impose on an episode's random set-up through ``reset(options=...)`` (none: fixed set-up)
+    reset_options: ClassVar[tuple[str, ...]] = ()
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -81,13 +83,17 @@ class Task:
         """The observation's length for a robot of ``robot_points`` points."""
         raise NotImplementedError
 
-    def placements(self, rng: Sequence[np.random.Generator], mask: np.ndarray) -> dict[str, np.ndarray] | None:
+    def placements(self, rng: Sequence[np.random.Generator], mask: np.ndarray,
+                   options: Mapping[str, Any] | None = None) -> dict[str, np.ndarray] | None:
         """Where the environments in ``mask`` place the objects named in ``moving`` this episode: name ->
-        ``(N, 2)`` voxel positions (rows outside ``mask`` ignored); None: where the world puts them."""
+        ``(N, 2)`` voxel positions (rows outside ``mask`` ignored); None: where the world puts them.
+        ``options`` (keys of ``reset_options``) impose a set-up instead of drawing it from ``rng``."""
         return None
 
-    def reset(self, frame: Frame, mask: np.ndarray, rng: Sequence[np.random.Generator]) -> None:
-        """Start the episodes of the environments in ``mask`` (their task state; ``frame`` is their first)."""
+    def reset(self, frame: Frame, mask: np.ndarray, rng: Sequence[np.random.Generator],
+              options: Mapping[str, Any] | None = None) -> None:
+        """Start the episodes of the environments in ``mask`` (their task state; ``frame`` is their first;
+        ``options`` as for :meth:`placements`)."""
 
     def observe(self, frame: Frame) -> list[Part]:
         """The observation's parts, in Evolution Gym's order (joined by :func:`observation`)."""
@@ -97,13 +103,21 @@ class Task:
         """The step's reward and whether the episode ended (Evolution Gym's ``done``), for every environment.
 
         An unstable step is undone (``after`` equals ``before`` there); the task adds the penalty as
-        Evolution Gym's does."""
+        Evolution Gym's does.  Rows of environments whose episode had ended are computed too and ignored
+        until their reset (which must restart any task state)."""
         raise NotImplementedError
 
     # -- shared by many tasks ---------------------------------------------------------------------
     def robot_width(self) -> int:
         """The widest robot's relative-position block (``2 * points``)."""
         return 2 * int(self.robot_points.max())
+
+
+def finish(reward: np.ndarray, unstable: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """How Evolution Gym's tasks end a step: the penalty where the simulation became unstable, then 1 more
+    and the episode over where the goal is met (both can happen)."""
+    reward = np.where(unstable, reward + UNSTABLE_PENALTY, reward)
+    return np.where(goal, reward + 1.0, reward), unstable | goal
 
 
 def checked_body(body: Any, task: type[Task]) -> Body:

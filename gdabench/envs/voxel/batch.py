@@ -8,7 +8,7 @@ environments of :mod:`gdabench.envs.voxel.gym_env` are thin faces of it.
 from __future__ import annotations
 
 from functools import cache
-from typing import Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -28,8 +28,9 @@ def task_world(task: str) -> engine.World:
 
 
 @cache
-def _placed(w: engine.World, name: str, at: tuple[int, int]) -> np.ndarray:
-    return build_object(w.grids[name], at, point_offset=1, edge_offset=1).pos
+def _placed(task: str, name: str, at: tuple[int, int]) -> np.ndarray:
+    """The points of ``task``'s object ``name`` placed at voxel ``at`` (as the world builds its objects)."""
+    return build_object(task_world(task).grids[name], at, point_offset=1, edge_offset=1).pos
 
 
 class TaskBatch:
@@ -39,7 +40,7 @@ class TaskBatch:
     body-major.  ``step`` returns observations ``(N, W)`` (each body's own size first, then zeros),
     rewards, and whether each environment's episode ended; environments whose episode ended are not
     stepped until ``reset(mask)``.  Tasks with random set-ups draw them from each environment's generator
-    (``seed``).
+    (``seed``), unless ``reset(options=...)`` imposes one (the task's ``reset_options``).
     """
 
     #: every action is clipped into this range (Evolution Gym's actuator ratios)
@@ -90,19 +91,28 @@ class TaskBatch:
                      robot_count=self.robot_points, objects=self._objects, static=self._static,
                      partial=self._partial)
 
-    def _fresh_positions(self, mask: np.ndarray) -> np.ndarray:
+    def _fresh_positions(self, mask: np.ndarray, options: Mapping[str, Any]) -> np.ndarray:
         pos = self.tables.init_pos[self.body_index].copy()
-        placed = self.task.placements(self.rngs, mask)
+        placed = self.task.placements(self.rngs, mask, options=options)
         for name, at in (placed or {}).items():
             start, count = self._objects[name]
             for i in np.flatnonzero(mask):
-                pos[i, start:start + count] = _placed(self.world, name, (int(at[i, 0]), int(at[i, 1])))
+                pos[i, start:start + count] = _placed(self.task_type.id, name, (int(at[i, 0]), int(at[i, 1])))
         return pos
 
-    def reset(self, mask: np.ndarray | None = None) -> np.ndarray:
-        """Put environments (all, or where ``mask``) at the start of an episode; returns every observation."""
+    def reset(self, mask: np.ndarray | None = None, options: Mapping[str, Any] | None = None) -> np.ndarray:
+        """Put environments (all, or where ``mask``) at the start of an episode; returns every observation.
+
+        ``options`` impose one random set-up on all of them instead of drawing theirs (Catcher-v0's
+        ``{"offset": (dx, dy)}``, BidirectionalWalker-v0's ``{"goals": [...]}``: the task's ``reset_options``).
+        """
         mask = np.ones(self.num_envs, dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
-        fresh = engine.reset(self.tables, self.body_index, self._fresh_positions(mask))
+        options = dict(options or {})
+        unknown = sorted(set(options) - set(self.task_type.reset_options))
+        if unknown:
+            takes = ", ".join(map(repr, self.task_type.reset_options)) or "none"
+            raise ValueError(f"{self.task_type.id} has no reset option {unknown[0]!r} (its options: {takes})")
+        fresh = engine.reset(self.tables, self.body_index, self._fresh_positions(mask, options))
         keep = ~mask[:, None, None]
         self.state = engine.State(
             pos=np.where(keep, self.state.pos, fresh.pos), vel=np.where(keep, self.state.vel, fresh.vel),
@@ -111,7 +121,7 @@ class TaskBatch:
         self.init = np.where(keep, self.init, fresh.pos)
         self.done[mask] = False
         frame = self.frame()
-        self.task.reset(frame, mask, self.rngs)
+        self.task.reset(frame, mask, self.rngs, options=options)
         self._obs = np.where(mask[:, None], observation(self.task.observe(frame), self.width), self._obs)
         return self._obs.copy()
 

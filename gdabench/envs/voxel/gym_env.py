@@ -89,7 +89,7 @@ class VoxelEnv(gymnasium.Env):
     ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
         self.batch.rngs = [self.np_random]  # a task's random set-up comes from the environment's generator
-        self._obs = self.batch.reset()[0, : self._size]
+        self._obs = self.batch.reset(options=options)[0, : self._size]
         return self._obs.copy(), {}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
@@ -141,18 +141,17 @@ class VoxelVectorEnv(VectorEnv):
             self.batch.seed([seed + i for i in range(self.num_envs)])
         self._t[:] = 0
         self._ended[:] = False
-        return self.batch.reset()[:, : self._size].copy(), {}
+        return self.batch.reset(options=options)[:, : self._size].copy(), {}
 
     def step(self, actions: np.ndarray):
         shape = (self.num_envs, *(self.single_action_space.shape or ()))
         actions = checked_actions(actions, shape, f"{self.task.id} vector actions")
         restart = self._ended.copy()
-        if restart.any():  # reset now, not stepped: they report their first observation
-            self.batch.reset(restart)
-            self._t[restart] = 0
-            self.batch.done[restart] = True
+        self.batch.done[restart] = True  # not stepped: reset after the step, they report their first observation
         obs, reward, terminated, unstable = self.batch.step(actions)
-        self.batch.done[restart] = False
+        if restart.any():  # (after: a task that keeps state between steps sees no step of a fresh episode)
+            obs = self.batch.reset(restart)
+            self._t[restart] = 0
         self._t[~restart] += 1
         truncated = ~terminated & (self._t >= self.max_episode_steps)
         self._ended = terminated | truncated
