@@ -100,3 +100,26 @@ def test_the_shape_tasks_hull_where_evolution_gyms_march_never_closes():
     points = np.array([[1.0, 0.2], [0.7999999999999999, 0.2], [0.7, 0.2], [0.7999999999999999, 0.1], [0.9, 0.2],
                        [0.9, 0.1], [0.7, 0.1], [1.0, 0.1]])
     assert hull_area(one_robot(points), "robot")[0] == pytest.approx(0.03, abs=1e-15)
+
+
+@pytest.mark.parametrize("turn", [0.4, -0.4])
+def test_flipper_counts_its_turns_on_over_whole_turns(turn):
+    start = np.array([[x, y] for y in (0.1, 0.2) for x in (3.0, 3.1, 3.2)])  # none at the centre
+    centre = start.mean(axis=0)
+
+    def turned(angle: float) -> Frame:
+        c, s = np.cos(angle), np.sin(angle)
+        return one_robot(centre + (start - centre) @ np.array([[c, s], [-s, c]]), init=start)
+
+    flipper = task("Flipper-v0")(np.array([len(start)]))
+    flipper.reset(turned(0.0), np.array([True]), [])
+    total = 0.0
+    for k in range(40):  # 16 radians: two whole turns and a half
+        reward, done = flipper.reward(turned(k * turn), turned((k + 1) * turn), np.array([False]))
+        total += reward[0]
+        assert not done[0]
+    # to within the orientation's noise near a whole turn (Evolution Gym clamps a cosine above 1 to 0.99999)
+    assert total == pytest.approx(40 * turn, abs=0.01)
+    assert flipper.flips[0] == (2 if turn > 0 else -3)
+    flipper.reset(turned(0.0), np.array([True]), [])
+    assert flipper.flips[0] == 0
