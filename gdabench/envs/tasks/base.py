@@ -18,6 +18,7 @@ import numpy as np
 
 from ...body import Body, as_body
 from ...errors import GdabenchError, MalformedBodyError
+from . import sense
 from .catalog import CATALOG
 from .sense import Frame
 
@@ -28,6 +29,11 @@ UNSTABLE_PENALTY = -3.0
 
 #: an observation part: an ``(N, w)`` array, or ``(array, widths)`` where environment ``i`` uses ``widths[i]`` columns
 Part = Union[np.ndarray, tuple[np.ndarray, np.ndarray]]
+
+
+def penalised(reward: np.ndarray, unstable: np.ndarray) -> np.ndarray:
+    """The reward with :data:`UNSTABLE_PENALTY` added where the step was unstable."""
+    return np.where(unstable, reward + UNSTABLE_PENALTY, reward)
 
 
 @cache
@@ -111,6 +117,10 @@ class Task:
     def robot_width(self) -> int:
         """The widest robot's relative-position block (``2 * points``)."""
         return 2 * int(self.robot_points.max())
+
+    def robot(self, frame: Frame) -> Part:
+        """``get_relative_pos_obs("robot")``: each environment's own ``2 * points`` columns."""
+        return sense.relative(frame, "robot", self.robot_width()), 2 * frame.robot_count
 
 
 def finish(reward: np.ndarray, unstable: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

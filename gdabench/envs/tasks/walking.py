@@ -11,7 +11,7 @@ from typing import ClassVar
 import numpy as np
 
 from . import sense
-from .base import UNSTABLE_PENALTY, Part, Task
+from .base import Part, Task, penalised
 from .sense import Frame
 
 
@@ -23,12 +23,9 @@ class Forward(Task):
     def reward(self, before: Frame, after: Frame, unstable: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x1, x2 = sense.com(before, "robot")[:, 0], sense.com(after, "robot")[:, 0]
         reward = x2 - x1
-        reward = np.where(unstable, reward + UNSTABLE_PENALTY, reward)
+        reward = penalised(reward, unstable)
         goal = x2 > self.goal_x
         return np.where(goal, reward + 1.0, reward), unstable | goal
-
-    def robot(self, frame: Frame) -> Part:
-        return sense.relative(frame, "robot", self.robot_width()), 2 * frame.robot_count
 
 
 class WalkerV0(Forward):
