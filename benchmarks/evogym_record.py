@@ -91,6 +91,16 @@ def gait(t: int, n: int) -> np.ndarray:
     return np.clip(1.1 + 0.45 * np.sin(2 * math.pi * t / 16 + 1.3 * k) * np.cos(2 * math.pi * t / 90), 0.6, 1.6)
 
 
+class _ZeroedEmpty:
+    """numpy for ``evogym.sim``, with ``empty`` giving zeros.  ``EvoSim`` passes ``np.empty((2, 1))`` as the
+    connections of an object without any (a single voxel: Traverser-v0's 1x1 block); the C++ side reads those
+    uninitialised numbers as voxel indices, which crashes at random.  Zeros are a connection of voxel 0 to itself,
+    which it ignores: the block has no connections, as intended."""
+
+    def __getattr__(self, name: str):
+        return np.zeros if name == "empty" else getattr(np, name)
+
+
 def record_task(task: str, index: int, steps: int) -> dict[str, np.ndarray]:
     import random
 
@@ -98,7 +108,9 @@ def record_task(task: str, index: int, steps: int) -> dict[str, np.ndarray]:
     from evogym.simulator_cpp import Sim
 
     with contextlib.redirect_stdout(io.StringIO()):
-        import evogym.envs  # noqa: F401 - registers the tasks
+        import evogym.envs  # registers the tasks
+        import evogym.sim
+    evogym.sim.np = _ZeroedEmpty()
     body_text = TASK_BODIES[index]
     body = np.array([[int(c) for c in r] for r in body_text.split("/")])
     random.seed(0)

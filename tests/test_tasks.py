@@ -7,6 +7,7 @@ Evolution Gym): for every task and two bodies, the first steps of an episode und
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -201,3 +202,57 @@ def test_flipper_counts_its_turns_on_over_whole_turns(turn):
     assert flipper.flips[0] == (2 if turn > 0 else -3)
     flipper.reset(turned(0.0), np.array([True]), [])
     assert flipper.flips[0] == 0
+
+
+# -- how episodes end: the fixtures' first steps never reach an end, so each is checked on a step set up to --
+def moved(task: str, centre: tuple[float | None, float | None] = (None, None), turn: float = 0.0):
+    """Task ``task``'s reward and end for a step that turns its robot by ``turn`` (radians, counter-clockwise)
+    about its centre and puts that centre at ``centre`` (metres; None keeps a coordinate)."""
+    batch = TaskBatch(task, [WALKER])
+    before = batch.frame()
+    start, count = batch.tables.robot_start, batch.robot_points[0]
+    pos = before.pos.copy()
+    points = pos[0, start:start + count]
+    c = points.mean(axis=0)
+    to = np.array([c[k] if centre[k] is None else centre[k] for k in (0, 1)])
+    rotation = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+    pos[0, start:start + count] = (points - c) @ rotation.T + to
+    reward, done = batch.task.reward(before, replace(before, pos=pos), np.zeros(1, dtype=bool))
+    return float(reward[0]), bool(done[0]), to - c
+
+
+#: (task, finishing line or None, its axis, its bonus)
+LINES = [("UpStepper-v0", 6.9, 0, 2.0), ("DownStepper-v0", 7.4, 0, 2.0), ("ObstacleTraverser-v0", 7.9, 0, 2.0),
+         ("ObstacleTraverser-v1", 5.9, 0, 2.0), ("Traverser-v0", 5.9, 0, 2.0), ("Hurdler-v0", None, 0, 0.0),
+         ("PlatformJumper-v0", None, 0, 0.0), ("GapJumper-v0", None, 0, 0.0), ("Climber-v0", 8.6, 1, 1.0),
+         ("Climber-v1", 6.5, 1, 1.0), ("Climber-v2", None, 1, 0.0)]
+
+
+@pytest.mark.parametrize("task,line,axis,bonus", LINES)
+def test_crossing_the_finishing_line_ends_the_episode_with_its_bonus(task, line, axis, bonus):
+    for at, past in ((line or 9.0) - 0.01, False), ((line or 9.0) + 0.01, line is not None):
+        centre = (at, None) if axis == 0 else (None, at)
+        reward, done, shift = moved(task, centre)
+        gain = shift[axis] + (0.2 * shift[0] if task == "Climber-v2" else 0.0)
+        assert done == past
+        assert reward == pytest.approx(gain + (bonus if past else 0.0), abs=1e-9)
+
+
+@pytest.mark.parametrize("task", ["PlatformJumper-v0", "GapJumper-v0"])
+def test_falling_below_the_lowest_platform_ends_the_episode_with_a_penalty(task):
+    assert moved(task, (None, 0.41))[:2] == (pytest.approx(0.0, abs=1e-9), False)
+    assert moved(task, (None, 0.39))[:2] == (pytest.approx(-3.0, abs=1e-9), True)
+
+
+TURNERS = {"UpStepper-v0", "DownStepper-v0", "ObstacleTraverser-v0", "Hurdler-v0", "PlatformJumper-v0"}
+
+
+@pytest.mark.parametrize("task", [line[0] for line in LINES])
+def test_turning_over_ends_the_terrain_tasks_that_check_it_with_a_penalty(task):
+    upside_down = moved(task, turn=np.pi)[:2]
+    assert upside_down == ((pytest.approx(-3.0, abs=1e-9), True) if task in TURNERS else
+                           (pytest.approx(0.0, abs=1e-9), False))
+    # UpStepper-v0's band is pi / 12 wider on either side: 80 degrees ends it, no other
+    assert moved(task, turn=np.radians(80))[1] == (task == "UpStepper-v0")
+    assert moved(task, turn=np.radians(280))[1] == (task == "UpStepper-v0")
+    assert not moved(task, turn=np.radians(70))[1]

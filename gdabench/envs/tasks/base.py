@@ -18,7 +18,6 @@ import numpy as np
 
 from ...body import Body, as_body
 from ...errors import GdabenchError, MalformedBodyError
-from . import sense
 from .catalog import CATALOG
 from .sense import Frame
 
@@ -113,20 +112,12 @@ class Task:
         until their reset (which must restart any task state)."""
         raise NotImplementedError
 
-    # -- shared by many tasks ---------------------------------------------------------------------
-    def robot_width(self) -> int:
-        """The widest robot's relative-position block (``2 * points``)."""
-        return 2 * int(self.robot_points.max())
-
-    def robot(self, frame: Frame) -> Part:
-        """``get_relative_pos_obs("robot")``: each environment's own ``2 * points`` columns."""
-        return sense.relative(frame, "robot", self.robot_width()), 2 * frame.robot_count
 
 
 def finish(reward: np.ndarray, unstable: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """How Evolution Gym's tasks end a step: the penalty where the simulation became unstable, then 1 more
     and the episode over where the goal is met (both can happen)."""
-    reward = np.where(unstable, reward + UNSTABLE_PENALTY, reward)
+    reward = penalised(reward, unstable)
     return np.where(goal, reward + 1.0, reward), unstable | goal
 
 

@@ -90,7 +90,7 @@ class BidirectionalWalkerV0(Task):
         target = self.target(self.shown)
         x = sense.com(frame, "robot")[:, 0]
         return [sense.vel_com(frame, "robot"),
-                (sense.relative(frame, "robot", self.robot_width()), 2 * frame.robot_count),
+                sense.robot_relative(frame),
                 self.shown.astype(float), target, target - x]
 
     def reward(self, before: Frame, after: Frame, unstable: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

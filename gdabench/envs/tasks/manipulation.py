@@ -30,9 +30,6 @@ class Manipulation(Task):
     def obs_size(cls, robot_points: int) -> int:
         return cls.features + 2 * robot_points
 
-    def robot(self, frame: Frame) -> Part:
-        return sense.relative(frame, "robot", self.robot_width()), 2 * frame.robot_count
-
     def coms(self, before: Frame, after: Frame) -> tuple[np.ndarray, ...]:
         """The centres of mass ``(N, 2)``: the robot's before and after the step, the thing's before and after."""
         return (sense.com(before, "robot"), sense.com(after, "robot"),
@@ -69,7 +66,7 @@ class Package(Manipulation):
 
     def observe(self, frame: Frame) -> list[Part]:
         return [sense.vel_com(frame, "robot"), sense.com(frame, "package") - sense.com(frame, "robot"),
-                sense.vel_com(frame, "package"), *self.extra(frame), self.robot(frame)]
+                sense.vel_com(frame, "package"), *self.extra(frame), sense.robot_relative(frame)]
 
     def extra(self, frame: Frame) -> list[Part]:
         """Parts after the package's velocity (Lifter-v0 adds its orientation)."""
@@ -156,7 +153,7 @@ class Tracking(Manipulation):
 
     def observe(self, frame: Frame) -> list[Part]:
         return [sense.com(frame, self.thing) - sense.com(frame, "robot"), sense.vel_com(frame, "robot"),
-                sense.vel_com(frame, self.thing), sense.orientation(frame, self.thing), self.robot(frame)]
+                sense.vel_com(frame, self.thing), sense.orientation(frame, self.thing), sense.robot_relative(frame)]
 
 
 class CatcherV0(Tracking):

@@ -8,7 +8,7 @@ end (its centre of mass left of x = 0.1 m).
 from __future__ import annotations
 
 import math
-from typing import ClassVar, Sequence
+from typing import Any, ClassVar, Mapping, Sequence
 
 import numpy as np
 
@@ -31,11 +31,12 @@ class FlipperV0(Task):
     def obs_size(cls, robot_points: int) -> int:
         return 1 + 2 * robot_points
 
-    def reset(self, frame: Frame, mask: np.ndarray, rng: Sequence[np.random.Generator]) -> None:
+    def reset(self, frame: Frame, mask: np.ndarray, rng: Sequence[np.random.Generator],
+              options: Mapping[str, Any] | None = None) -> None:
         self.flips[mask] = 0
 
     def observe(self, frame: Frame) -> list[Part]:
-        return [sense.orientation(frame, "robot"), self.robot(frame)]
+        return [sense.orientation(frame, "robot"), sense.robot_relative(frame)]
 
     def reward(self, before: Frame, after: Frame, unstable: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         ort1, ort2 = sense.orientation(before, "robot"), sense.orientation(after, "robot")
@@ -61,7 +62,7 @@ class JumperV0(Task):
         return 2 + 2 * robot_points + (2 * cls.sight_dist + 1)
 
     def observe(self, frame: Frame) -> list[Part]:
-        return [sense.vel_com(frame, "robot"), self.robot(frame),
+        return [sense.vel_com(frame, "robot"), sense.robot_relative(frame),
                 sense.floor(frame, "robot", ("ground",), self.sight_dist)]
 
     def reward(self, before: Frame, after: Frame, unstable: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -81,7 +82,7 @@ class Balance(Task):
         return 1 + 2 * robot_points
 
     def observe(self, frame: Frame) -> list[Part]:
-        return [sense.orientation(frame, "robot"), self.robot(frame)]
+        return [sense.orientation(frame, "robot"), sense.robot_relative(frame)]
 
     def reward(self, before: Frame, after: Frame, unstable: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         c1, c2 = sense.com(before, "robot"), sense.com(after, "robot")

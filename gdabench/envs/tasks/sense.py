@@ -286,3 +286,9 @@ def _look(frame: Frame, name: str, terrain: tuple[str, ...], sight_dist: int, si
     out = np.empty((frame.n, 2 * sight_dist + 1))
     _elevations(frame.pos, *frame.span(name), points, counts, sight_dist, float(sight_range), below, out)
     return out
+
+
+# -- observation parts (appended by the locomotion and climbing tasks) -----------------------------
+def robot_relative(frame: Frame) -> tuple[np.ndarray, np.ndarray]:
+    """``get_relative_pos_obs("robot")`` as an observation part: environment ``i`` uses ``2 * points`` columns."""
+    return relative(frame, "robot", 2 * int(frame.robot_count.max())), 2 * frame.robot_count

@@ -20,6 +20,7 @@ from typing import ClassVar
 import numba
 import numpy as np
 
+from . import sense
 from .base import Part, Task, penalised
 from .sense import Frame
 
@@ -151,7 +152,7 @@ class ShapeChange(Task):
         return 2 * robot_points
 
     def observe(self, frame: Frame) -> list[Part]:
-        return [self.robot(frame)]
+        return [sense.robot_relative(frame)]
 
     def measure(self, frame: Frame) -> np.ndarray:
         raise NotImplementedError

@@ -37,7 +37,7 @@ class WalkerV0(Forward):
         return 2 + 2 * robot_points
 
     def observe(self, frame: Frame) -> list[Part]:
-        return [sense.vel_com(frame, "robot"), self.robot(frame)]
+        return [sense.vel_com(frame, "robot"), sense.robot_relative(frame)]
 
 
 class BridgeWalkerV0(Forward):
@@ -49,7 +49,7 @@ class BridgeWalkerV0(Forward):
         return 3 + 2 * robot_points
 
     def observe(self, frame: Frame) -> list[Part]:
-        return [sense.vel_com(frame, "robot"), sense.orientation(frame, "robot"), self.robot(frame)]
+        return [sense.vel_com(frame, "robot"), sense.orientation(frame, "robot"), sense.robot_relative(frame)]
 
 
 class CaveCrawlerV0(Forward):
@@ -62,7 +62,7 @@ class CaveCrawlerV0(Forward):
         return 2 + 2 * robot_points + 2 * (2 * cls.sight_dist + 1)
 
     def observe(self, frame: Frame) -> list[Part]:
-        return [sense.vel_com(frame, "robot"), self.robot(frame),
+        return [sense.vel_com(frame, "robot"), sense.robot_relative(frame),
                 sense.floor(frame, "robot", ("terrain",), self.sight_dist),
                 sense.ceiling(frame, "robot", ("terrain",), self.sight_dist)]
 
