@@ -21,7 +21,7 @@ def gdabench_environments() -> list[EnvironmentSpec]:
         EnvironmentSpec(
             name="walker",
             factory="gdabench.envs.walker.env:Walker",
-            description="Evolution Gym's Walker-v0 [easy] on its own physics, batched (voxel/Walker-v0; "
+            description="[easy] Evolution Gym's Walker-v0 on its own physics, batched (voxel/Walker-v0; "
                         "engine=pymunk: gdabench/Walker-v1); needs a controller",
             requires_controller=True,
         ),
@@ -29,7 +29,7 @@ def gdabench_environments() -> list[EnvironmentSpec]:
             EnvironmentSpec(
                 name=f"voxel/{entry.id}",
                 factory="gdabench.envs.voxel.env:VoxelTask",
-                description=f"Evolution Gym's {entry.id} [{entry.difficulty}] on the voxel engine: {entry.summary}; "
+                description=f"[{entry.difficulty}] {entry.summary}: Evolution Gym's {entry.id} on the voxel engine; "
                             "needs a controller",
                 defaults={"task": entry.id},
                 requires_controller=True,

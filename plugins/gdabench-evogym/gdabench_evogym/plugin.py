@@ -13,8 +13,8 @@ def gdabench_environments():
         gdabench.EnvironmentSpec(
             name=f"evogym/{task}",
             factory="gdabench_evogym.env:EvogymTask",
-            description=f"Evolution Gym 2.0's {task} [{CATALOG[task].difficulty}] (C++ simulator), scored by a "
-                        "controller",
+            description=f"[{CATALOG[task].difficulty}] {CATALOG[task].summary}: Evolution Gym 2.0's {task} on its "
+                        "own C++ simulator; needs a controller",
             defaults={"task": task},
             requires_controller=True,
         )
