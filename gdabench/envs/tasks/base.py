@@ -146,29 +146,29 @@ def checked_body(body: Any, task: type[Task]) -> Body:
 
 
 @numba.njit(cache=True, boundscheck=False)
-def _join(src, offsets, widths, out):
-    for i in range(src.shape[0]):
-        at = 0
-        for k in range(offsets.shape[0]):
-            w = widths[i, k]
-            for c in range(w):
-                out[i, at + c] = src[i, offsets[k] + c]
-            at += w
-        for c in range(at, out.shape[1]):
-            out[i, c] = 0.0
+def _place(part, used, starts, out):
+    """Row ``i``'s first ``used[i]`` values of ``part`` at column ``starts[i]`` of ``out``; moves ``starts`` on."""
+    for i in range(part.shape[0]):
+        for c in range(used[i]):
+            out[i, starts[i] + c] = part[i, c]
+        starts[i] += used[i]
 
 
 def observation(parts: Sequence[Part], width: int) -> np.ndarray:
-    """Each environment's parts one after the other, the row padded with zeros to ``width``."""
-    arrays, widths = [], []
+    """Each environment's parts one after the other, the row padded with zeros to ``width``.
+
+    While every row's parts so far have the same width, a part is copied as one block (a part of varying
+    width is zero beyond each row's own, as :func:`~gdabench.envs.tasks.sense.relative` makes it); after
+    one of varying width, row by row."""
+    n = len(parts[0][0] if isinstance(parts[0], tuple) else parts[0])
+    out = np.zeros((n, width))
+    at: int | np.ndarray = 0  # where the next part starts: one column for every row, or each row's own
     for part in parts:
         array, used = part if isinstance(part, tuple) else (part, None)
-        array = np.asarray(array, dtype=np.float64)
-        array = array.reshape(len(array), -1)
-        arrays.append(array)
-        widths.append(np.full(len(array), array.shape[1], dtype=np.int64) if used is None else used)
-    src = np.ascontiguousarray(np.concatenate(arrays, axis=1))
-    offsets = np.concatenate([[0], np.cumsum([a.shape[1] for a in arrays])[:-1]]).astype(np.int64)
-    out = np.empty((src.shape[0], width))
-    _join(src, offsets, np.ascontiguousarray(np.stack(widths, axis=1)), out)
+        array = np.asarray(array, dtype=np.float64).reshape(n, -1)
+        if isinstance(at, int):
+            out[:, at:at + array.shape[1]] = array
+            at = at + array.shape[1] if used is None else at + used.astype(np.int64)
+        else:
+            _place(array, np.full(n, array.shape[1], dtype=np.int64) if used is None else used, at, out)
     return out

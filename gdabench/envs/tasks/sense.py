@@ -41,19 +41,24 @@ class Frame:
     objects: Mapping[str, tuple[int, int]]
     static: Mapping[str, np.ndarray]
     partial: Mapping[str, tuple[int, np.ndarray, np.ndarray]] = field(default_factory=dict)
+    spans: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
     @property
     def n(self) -> int:
         return self.pos.shape[0]
 
     def span(self, name: str) -> tuple[np.ndarray, np.ndarray]:
-        """(start, count) per environment of object ``name``'s points (the robot, or a wholly moving object)."""
-        if name == "robot":
-            return np.full(self.n, self.robot_start, dtype=np.int64), self.robot_count
-        if name not in self.objects:
-            raise ValueError(f"object {name!r} is not wholly simulated: read its points with Frame.points")
-        start, count = self.objects[name]
-        return np.full(self.n, start, dtype=np.int64), np.full(self.n, count, dtype=np.int64)
+        """(start, count) per environment of object ``name``'s points (the robot, or a wholly moving object);
+        kept in ``spans``, which frames of one batch share."""
+        if name not in self.spans:
+            if name == "robot":
+                self.spans[name] = np.full(self.n, self.robot_start, dtype=np.int64), self.robot_count
+            elif name in self.objects:
+                start, count = self.objects[name]
+                self.spans[name] = np.full(self.n, start, dtype=np.int64), np.full(self.n, count, dtype=np.int64)
+            else:
+                raise ValueError(f"object {name!r} is not wholly simulated: read its points with Frame.points")
+        return self.spans[name]
 
     def positions(self, name: str) -> np.ndarray:
         """Every point of object ``name`` (not the robot), ``(N, points, 2)``, in Evolution Gym's order."""

@@ -64,6 +64,7 @@ class TaskBatch:
         self._partial = {name: (starts[name], kept, rest) for name, kept, rest in zip(w.names, w.kept, w.rest)
                          if len(kept) < len(rest)}
         self._static = {name: obj.pos for name, obj in zip(self.world.static_names, self.world.static)}
+        self._spans: dict = {}  # the objects' point spans, the same in every frame of this batch
         self.state = engine.reset(self.tables, self.body_index)
         self.init = self.state.pos.copy()
         self._obs = np.zeros((self.num_envs, self.width))
@@ -89,7 +90,7 @@ class TaskBatch:
         state = self.state if state is None else state
         return Frame(pos=state.pos, vel=state.vel, init=self.init, robot_start=self.tables.robot_start,
                      robot_count=self.robot_points, objects=self._objects, static=self._static,
-                     partial=self._partial)
+                     partial=self._partial, spans=self._spans)
 
     def _fresh_positions(self, mask: np.ndarray, options: Mapping[str, Any]) -> np.ndarray:
         pos = self.tables.init_pos[self.body_index].copy()
