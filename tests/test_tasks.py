@@ -256,3 +256,114 @@ def test_turning_over_ends_the_terrain_tasks_that_check_it_with_a_penalty(task):
     assert moved(task, turn=np.radians(80))[1] == (task == "UpStepper-v0")
     assert moved(task, turn=np.radians(280))[1] == (task == "UpStepper-v0")
     assert not moved(task, turn=np.radians(70))[1]
+
+
+# -- every task as a Gymnasium environment, deterministic in any batch ------------------------------------
+OTHERS = ["32423/22443/04213/01412/31233", "33333/40004/40004/44444/40004", "00000/00000/44444/43434/44444"]
+
+
+@pytest.mark.parametrize("name", list(CATALOG))
+def test_every_task_passes_gymnasiums_checker_and_renders(name):
+    import gymnasium
+    from gymnasium.utils.env_checker import check_env
+
+    env = gymnasium.make(f"voxel/{name}", body=WALKER, render_mode="rgb_array")
+    check_env(env.unwrapped, skip_render_check=True)
+    env.reset(seed=1)
+    assert env.render().shape == (240, 480, 3)
+    assert env.spec.max_episode_steps == CATALOG[name].max_episode_steps
+
+
+def _trajectory(name: str, bodies: list[str], steps: int = 8) -> np.ndarray:
+    batch = TaskBatch(name, bodies)
+    batch.seed(list(range(len(bodies))))
+    batch.reset()
+    ours, others = np.random.default_rng(3), np.random.default_rng(4)
+    width, n_act, size = batch.tables.max_actuators, int(batch.tables.n_act[0]), batch.obs_sizes[0]
+    out = []
+    for _ in range(steps):
+        actions = others.uniform(0.6, 1.6, size=(len(bodies), width))
+        actions[0, :n_act] = ours.uniform(0.6, 1.6, size=n_act)  # the same in every batch
+        obs, reward, *_ = batch.step(actions)
+        out.append(np.concatenate([obs[0, :size], [reward[0]], batch.state.pos[0, : batch.tables.n_points[0]].ravel()]))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("name", list(CATALOG))
+def test_a_body_plays_a_task_bit_for_bit_the_same_alone_in_a_mixed_batch_and_on_any_thread_count(name):
+    import numba
+
+    alone = _trajectory(name, [WALKER])
+    mixed = _trajectory(name, [WALKER, *OTHERS])
+    threads = numba.get_num_threads()
+    try:
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+        parallel = _trajectory(name, [WALKER] + OTHERS * 3)  # enough environments for the parallel kernel
+    finally:
+        numba.set_num_threads(threads)
+    assert np.array_equal(alone, mixed) and np.array_equal(alone, parallel)
+    assert np.isfinite(alone).all()
+
+
+# -- what a Gymnasium user can get wrong: one clear error, as the single environment gives ------------------
+def vector(num_envs=4, **kwargs):
+    import gymnasium
+
+    return gymnasium.make_vec("voxel/Walker-v0", num_envs=num_envs, vectorization_mode="vector_entry_point",
+                              body=WALKER, **kwargs)
+
+
+@pytest.mark.parametrize("actions, message", [
+    (np.full((4, 9), np.nan), "must be finite numbers"),
+    (np.full((4, 9), np.inf), "must be finite numbers"),
+    (np.ones((4, 3)), r"must have shape \(4, 9\)"),
+    (np.ones((4, 100)), r"must have shape \(4, 9\)"),
+    (np.ones((3, 9)), r"must have shape \(4, 9\)"),
+    ([["a"] * 9] * 4, "must be numbers"),
+])
+def test_the_vector_env_refuses_actions_the_single_env_refuses(actions, message):
+    envs = vector()
+    envs.reset(seed=0)
+    with pytest.raises(ValueError, match=message) as info:
+        envs.step(actions)
+    assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("num_envs", [0, -1, 2.5, "4", True])
+def test_the_vector_env_refuses_a_number_of_environments_that_is_not_one_or_more(num_envs):
+    with pytest.raises(ValueError, match="num_envs must be a whole number of at least 1"):
+        vector(num_envs=num_envs)
+
+
+def test_a_gymnasium_env_without_a_body_says_what_it_needs():
+    import gymnasium
+
+    with pytest.raises(TypeError, match=r"voxel/Carrier-v0 needs a body: gymnasium.make\('voxel/Carrier-v0', body="):
+        gymnasium.make("voxel/Carrier-v0")
+    with pytest.raises(TypeError, match="gdabench/Walker-v2 needs a body|voxel/Walker-v0 needs a body"):
+        gymnasium.make("gdabench/Walker-v2")
+    with pytest.raises(TypeError, match="gdabench/Walker-v1 needs a body"):
+        gymnasium.make("gdabench/Walker-v1")
+
+
+def test_the_vector_env_marks_unstable_environments_in_info():
+    import gymnasium
+
+    envs = gymnasium.make_vec("voxel/Walker-v0", num_envs=2, vectorization_mode="vector_entry_point",
+                              body="11111/44444/40404/40404/40404")
+    envs.reset(seed=0)
+    columns = np.array([0, 1, 2, 3, 4, 0, 2, 4, 0, 2, 4, 0, 2, 4])  # the fixture's unstable gait (step 63)
+    for t in range(80):
+        wave = 1.1 + 0.5 * np.sin(2 * np.pi * t / 40 - columns - np.pi / 2)
+        _, reward, terminated, _, info = envs.step(np.stack([wave, np.ones(14)]))
+        if terminated[0]:
+            break
+    assert t == 62 and reward[0] < -2.9
+    assert info["unstable"].tolist() == [True, False] and info["_unstable"].tolist() == [True, False]
+
+
+def test_a_small_vector_env_steps_on_one_thread_by_default_and_the_user_can_choose():
+    assert vector(num_envs=8).unwrapped.threads == 1
+    assert vector(num_envs=8, threads=2).unwrapped.threads == 2
+    with pytest.raises(ValueError, match="threads must be a whole number of at least 1"):
+        vector(threads=0)

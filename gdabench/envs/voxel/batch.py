@@ -47,8 +47,9 @@ class TaskBatch:
     action_bounds = (ACTION_LOW, ACTION_HIGH)
 
     def __init__(self, task: type[Task] | str, bodies: Sequence[Body | str], envs_per_body: int = 1,
-                 pad: engine.BodyTables | None = None):
+                 pad: engine.BodyTables | None = None, threads: int | None = None):
         self.task_type = task_named(task) if isinstance(task, str) else task
+        self.threads = threads  # Numba threads per step (None: Numba's count; see engine.step)
         self.bodies = [checked_body(b, self.task_type) for b in bodies]
         self.world = task_world(self.task_type.id)
         self.tables = engine.body_tables(self.bodies, self.world, pad=pad)
@@ -130,7 +131,7 @@ class TaskBatch:
         """Step every environment not done; returns ``(obs, reward, terminated, unstable)``."""
         active = ~self.done
         before = self.frame()
-        self.state, out = engine.step(self.tables, self.state, actions, active=active)
+        self.state, out = engine.step(self.tables, self.state, actions, active=active, threads=self.threads)
         after = self.frame()
         unstable = out.unstable & active
         reward, ended = self.task.reward(before, after, unstable)

@@ -10,6 +10,7 @@ them as one array batch of the task (:class:`~gdabench.envs.voxel.batch.TaskBatc
 from __future__ import annotations
 
 import functools
+import warnings
 from typing import Any, Sequence
 
 import gymnasium
@@ -52,7 +53,9 @@ class VoxelTask(ControlledEnvironment):
         return reason
 
     def make_env(self, body: Body, **kwargs: Any) -> gymnasium.Env:
-        return gymnasium.make(env_id(self.task), body=body.text, **kwargs)
+        with warnings.catch_warnings():  # "voxel/Carrier-v0 is out of date": Carrier-v1 is another task, not a new
+            warnings.filterwarnings("ignore", message=".*is out of date", category=DeprecationWarning)  # version
+            return gymnasium.make(env_id(self.task), body=body.text, **kwargs)
 
     def bodies(self, bodies: Sequence[Body]) -> Bodies:
         """The bodies' Gymnasium environments and all of them as one array batch; every batch is padded as

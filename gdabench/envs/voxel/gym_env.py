@@ -23,7 +23,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 
 from ..tasks.base import ACTION_HIGH, ACTION_LOW
-from . import env_id
+from . import engine, env_id
 from .batch import TaskBatch
 
 #: observations are bounded as Evolution Gym bounds them
@@ -118,14 +118,20 @@ class VoxelVectorEnv(VectorEnv):
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP}
 
     def __init__(self, num_envs: int = 1, body: Any = None, task: str = "Walker-v0",
-                 max_episode_steps: int | None = None, **kwargs: Any):
+                 max_episode_steps: int | None = None, threads: int | None = None, **kwargs: Any):
         if kwargs.get("render_mode") is not None:
             raise ValueError(f"the vector environments do not render; use gymnasium.make({env_id(task)!r}, "
                              "render_mode='rgb_array')")
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be a whole number of at least 1, got {num_envs!r}")
+        if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer))
+                                    or threads < 1):
+            raise ValueError(f"threads must be a whole number of at least 1, got {threads!r}")
         self.num_envs = int(num_envs)
-        self.batch = TaskBatch(task, [_body_arg(task, body)], envs_per_body=self.num_envs)
+        #: Numba threads that step the environments: by default one below 32 environments (see
+        #: gdabench.envs.voxel.engine.default_threads), else one per 16 up to the cores this process may use
+        self.threads = engine.default_threads(self.num_envs) if threads is None else int(threads)
+        self.batch = TaskBatch(task, [_body_arg(task, body)], envs_per_body=self.num_envs, threads=self.threads)
         self.task = self.batch.task_type
         self.single_action_space, self.single_observation_space = _spaces(self.batch)
         self.action_space = gymnasium.vector.utils.batch_space(self.single_action_space, self.num_envs)

@@ -32,7 +32,8 @@ MAX_EPISODE_STEPS = 500
 def retired(**kwargs: Any) -> NoReturn:
     """Entry point of retired ids: one line saying what to use instead."""
     raise ConfigError(
-        f"{RETIRED_IDS[0]} is retired (its physics was never calibrated against Evolution Gym); use {ENV_ID}"
+        f"{RETIRED_IDS[0]} is retired (its physics was never calibrated against Evolution Gym); use "
+        f"gdabench/Walker-v2 (Evolution Gym's own physics, also voxel/Walker-v0) or {ENV_ID} (pymunk)"
     )
 
 

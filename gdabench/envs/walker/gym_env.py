@@ -53,7 +53,9 @@ class WalkerEnv(gymnasium.Env):
 
     metadata = {"render_modes": ["rgb_array"]}
 
-    def __init__(self, body: Any, render_mode: str | None = None, physics: WalkerPhysics | None = None):
+    def __init__(self, body: Any = None, render_mode: str | None = None, physics: WalkerPhysics | None = None):
+        if body is None:
+            raise TypeError("gdabench/Walker-v1 needs a body: gymnasium.make('gdabench/Walker-v1', body='44444/...')")
         self.body = checked_body(body)
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode {render_mode!r} is not supported; use 'rgb_array' or None")
