@@ -164,6 +164,7 @@ class World:
 
     names: tuple[str, ...]  # the moving objects' names, in order
     moving: tuple[Object, ...]  # the simulated part of each
+    whole: tuple[Object, ...]  # and each whole
     kept: tuple[np.ndarray, ...]
     rest: tuple[np.ndarray, ...]
     static_names: tuple[str, ...]
@@ -194,6 +195,7 @@ def world(objects: Mapping[str, tuple[np.ndarray, tuple[int, int]]], robot_at: t
     names: list[str] = []
     static_names: list[str] = []
     built: list[Object] = []
+    whole: list[Object] = []
     static: list[Object] = []
     kept: list[np.ndarray] = []
     rest: list[np.ndarray] = []
@@ -218,6 +220,7 @@ def world(objects: Mapping[str, tuple[np.ndarray, tuple[int, int]]], robot_at: t
             removed_parts.append((len(names), obj, removed))
         names.append(name)
         built.append(part)
+        whole.append(obj)
         kept.append(points)
         rest.append(obj.pos)
     start = np.concatenate([[0], np.cumsum([len(part.pos) for part in built])])
@@ -225,7 +228,7 @@ def world(objects: Mapping[str, tuple[np.ndarray, tuple[int, int]]], robot_at: t
         link = np.full(len(obj.pos), -1, dtype=np.int64)
         link[kept[k]] = start[k] + np.arange(len(kept[k]))
         colliders.append((obj, removed, k, link))
-    return World(names=tuple(names), moving=tuple(built), kept=tuple(kept), rest=tuple(rest),
+    return World(names=tuple(names), moving=tuple(built), whole=tuple(whole), kept=tuple(kept), rest=tuple(rest),
                  static_names=tuple(static_names), static=tuple(static), terrain=terrain(colliders),
                  robot_at=robot_at, grids=grids)
 

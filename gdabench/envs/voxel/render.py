@@ -27,12 +27,15 @@ class WorldRenderer:
         self.size, self.ppm = size, pixels_per_meter
         self.static = [obj.pos[obj.boxel_points] for obj in w.static]  # (n, 4, 2) corners, never moving
         self.static_colors = [[COLORS[int(c)] for c in obj.boxel_type] for obj in w.static]
-        quads, colors, offset = [], [], 0
-        for obj in (*w.moving, tables.robots[b]):
-            quads.append(obj.boxel_points + offset)
-            colors += [COLORS[int(c)] for c in obj.boxel_type]
-            offset += len(obj.pos)
-        self.quads, self.colors = np.concatenate(quads), colors
+        #: each moving object whole: its boxels, its points at rest, which of them are simulated and where
+        self.objects = []
+        start = 0
+        for part, whole, kept, rest in zip(w.moving, w.whole, w.kept, w.rest):
+            self.objects.append((whole.boxel_points, [COLORS[int(c)] for c in whole.boxel_type], kept, rest, start))
+            start += len(part.pos)
+        robot = tables.robots[b]
+        self.robot_quads = robot.boxel_points + tables.robot_start
+        self.robot_colors = [COLORS[int(c)] for c in robot.boxel_type]
         self.robot = slice(tables.robot_start, tables.robot_start + int(tables.n_robot_points[b]))
 
     def draw(self, positions: np.ndarray) -> np.ndarray:
@@ -55,7 +58,11 @@ class WorldRenderer:
             canvas.text((x + 3, y - 12), f"{metre} m", fill=TICK)
         quads = [(corners, fill) for obj, fills in zip(self.static, self.static_colors)
                  for corners, fill in zip(obj, fills)]
-        quads += [(positions[q], fill) for q, fill in zip(self.quads, self.colors)]
+        for boxels, fills, kept, rest, start in self.objects:
+            points = rest.copy()
+            points[kept] = positions[start:start + len(kept)]
+            quads += [(points[q], fill) for q, fill in zip(boxels, fills)]
+        quads += [(positions[q], fill) for q, fill in zip(self.robot_quads, self.robot_colors)]
         for corners, fill in quads:
             xs, ys = px(corners[:, 0], corners[:, 1])
             canvas.polygon(list(zip(xs.tolist(), ys.tolist())), fill=fill, outline=(0, 0, 0))
