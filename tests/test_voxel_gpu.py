@@ -62,3 +62,21 @@ def test_a_body_steps_bit_identically_alone_and_in_a_batch_on_the_gpu():
         in_batch, _ = gpu.step(batch, in_batch, a)
         by_itself, _ = gpu.step(alone, by_itself, a[3:4])
     assert np.array_equal(in_batch.pos.copy_to_host()[3], by_itself.pos.copy_to_host()[0])
+
+
+@pytest.mark.parametrize("task", ["Walker-v0", "Carrier-v0", "BridgeWalker-v0"])
+def test_a_task_batch_on_the_gpu_plays_as_on_the_cpu(task):
+    from gdabench.envs.voxel.batch import TaskBatch
+
+    bodies = [b.text for b in _bodies(4)]
+    cpu, gpu_batch = TaskBatch(task, bodies), TaskBatch(task, bodies, device="cuda")
+    for batch in (cpu, gpu_batch):
+        batch.seed([0, 1, 2, 3])
+        batch.reset()
+    for t in range(10):
+        a = _actions(t, 4, cpu.tables.max_actuators)
+        obs_c, reward_c, done_c, _ = cpu.step(a)
+        obs_g, reward_g, done_g, _ = gpu_batch.step(a)
+    np.testing.assert_allclose(obs_g, obs_c, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(reward_g, reward_c, rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(done_g, done_c)

@@ -47,9 +47,12 @@ class TaskBatch:
     action_bounds = (ACTION_LOW, ACTION_HIGH)
 
     def __init__(self, task: type[Task] | str, bodies: Sequence[Body | str], envs_per_body: int = 1,
-                 pad: engine.BodyTables | None = None, threads: int | None = None):
+                 pad: engine.BodyTables | None = None, threads: int | None = None, device: str = "cpu"):
         self.task_type = task_named(task) if isinstance(task, str) else task
         self.threads = threads  # Numba threads per step (None: Numba's count; see engine.step)
+        if device not in ("cpu", "cuda"):
+            raise ValueError(f"device must be 'cpu' or 'cuda', got {device!r}")
+        self.device = device
         self.bodies = [checked_body(b, self.task_type) for b in bodies]
         self.world = task_world(self.task_type.id)
         self.tables = engine.body_tables(self.bodies, self.world, pad=pad)
@@ -68,6 +71,11 @@ class TaskBatch:
         self._spans: dict = {}  # the objects' point spans, the same in every frame of this batch
         self.state = engine.reset(self.tables, self.body_index)
         self.init = self.state.pos.copy()
+        self._gpu: Any = None
+        if device == "cuda":  # the physics on the GPU; the task reads the state back every step
+            from . import gpu
+
+            self._gpu = gpu.Stepper(self.tables)
         self._obs = np.zeros((self.num_envs, self.width))
         self.reset()
 
@@ -131,7 +139,10 @@ class TaskBatch:
         """Step every environment not done; returns ``(obs, reward, terminated, unstable)``."""
         active = ~self.done
         before = self.frame()
-        self.state, out = engine.step(self.tables, self.state, actions, active=active, threads=self.threads)
+        if self._gpu is None:
+            self.state, out = engine.step(self.tables, self.state, actions, active=active, threads=self.threads)
+        else:
+            self.state, out = self._gpu.step(self.state, actions, active)
         after = self.frame()
         unstable = out.unstable & active
         reward, ended = self.task.reward(before, after, unstable)

@@ -30,13 +30,18 @@ class VoxelTask(ControlledEnvironment):
 
     Parameters:
         task: the Evolution Gym id (Walker-v0, Carrier-v0, ...)
+        device: where a controller's batches step the physics: cpu, or cuda (an NVIDIA GPU, with the gpu extra;
+            pays from thousands of environments at once: docs/environments/voxel-engine.md)
     """
 
-    def __init__(self, *, shape: tuple[int, int] = (5, 5), task: str = "Walker-v0"):
+    def __init__(self, *, shape: tuple[int, int] = (5, 5), task: str = "Walker-v0", device: str = "cpu"):
         super().__init__(shape=shape)
         if task not in CATALOG:
             raise ConfigError(f"unknown Evolution Gym task {task!r}; tasks: {', '.join(CATALOG)}")
+        if device not in ("cpu", "cuda"):
+            raise ConfigError(f"{env_id(task)}: device must be cpu or cuda, got {device!r}")
         self.task = task
+        self.device = device
         #: the physics and task every row records (``env_version``)
         self.version: str = env_id(task)
 
@@ -71,7 +76,7 @@ class VoxelTask(ControlledEnvironment):
         tables = engine.body_tables([np.full(self.shape, 4, dtype=np.int8)], batch.task_world(self.task))
 
         def make_batch(indices: Sequence[int], n: int) -> ArrayBodies:
-            simulator = batch.TaskBatch(defined, [bodies[i] for i in indices], n, pad=tables)
+            simulator = batch.TaskBatch(defined, [bodies[i] for i in indices], n, pad=tables, device=self.device)
             return ArrayBodies(simulator, n, defined.max_episode_steps)
 
         return Bodies(make_envs, make_batch, pad)

@@ -145,3 +145,22 @@ def step(dev: DeviceEngine, state: State, actions: Any, active: Any = None) -> t
     args = (active, state.body, acts, new.pos, new.vel, new.vtrue, out.unstable, *kernel_args(t))
     _step_kernel(t.max_points, t.edges.shape[1], t.surface_points.shape[1])[_blocks(n), THREADS](*args)
     return new, out
+
+
+class Stepper:
+    """:func:`engine.step` for a batch whose state the caller keeps on the host (a task reads it every step):
+    the tables go to the GPU once, the state there and back at every step.  What a run with ``device=cuda``
+    uses; a loop that keeps everything on the device calls :func:`step` itself."""
+
+    def __init__(self, tables: BodyTables):
+        self.dev = to_device(tables)
+
+    def step(self, state: State, actions: np.ndarray, active: np.ndarray) -> tuple[State, StepOutput]:
+        on_device = State(pos=cuda.to_device(state.pos), vel=cuda.to_device(state.vel),
+                          vtrue=cuda.to_device(state.vtrue), body=cuda.to_device(state.body))
+        new, out = step(self.dev, on_device, np.ascontiguousarray(actions, dtype=np.float64), active)
+        moved: Any = new  # device arrays (numba's), not numpy's
+        host = State(pos=moved.pos.copy_to_host(), vel=moved.vel.copy_to_host(), vtrue=moved.vtrue.copy_to_host(),
+                     body=state.body)
+        flags: Any = out.unstable
+        return host, StepOutput(unstable=flags.copy_to_host())
