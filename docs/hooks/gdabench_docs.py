@@ -342,6 +342,24 @@ def walker_transfer(root: Path) -> str:
     return "\n".join(lines)
 
 
+def evogym_tasks() -> str:
+    """Evolution Gym's 32 tasks on the voxel engine: grade, step limit, where the robot starts, what moves."""
+    from gdabench.envs.tasks import ENTRIES, task
+
+    rows = ["| task | grade | steps | robot at (voxel) | observation (robot of n points) | moving objects | "
+            "what it asks |", "|---|---|--:|---|---|---|---|"]
+    for entry in ENTRIES:
+        defined = task(entry.id)
+        objects = defined.objects()
+        moving = [name for name, (grid, _) in objects.items() if (grid[grid != 0] != 5).any() or name in defined.moving]
+        extra = defined.obs_size(0)
+        size = f"2n + {extra}" if extra else "2n"
+        shown = ", ".join(moving[:3]) + (f" and {len(moving) - 3} more" if len(moving) > 3 else "") or "none"
+        rows.append(f"| `voxel/{entry.id}` | {entry.difficulty} | {entry.max_episode_steps} | {defined.robot_at} "
+                    f"| {size} | {shown} | {entry.summary} |")
+    return "\n".join(rows)
+
+
 def extras_table(root: Path) -> str:
     with open(root / "pyproject.toml", "rb") as fh:
         extras: dict[str, list[str]] = tomllib.load(fh)["project"].get("optional-dependencies", {})
@@ -401,6 +419,7 @@ def on_page_markdown(markdown: str, page: Any, config: Any, files: Files) -> str
         "walker-claims": lambda run="walker": walker_claims(root, run),
         "walker-variants": lambda run="walker-thesis": walker_variants(root, run),
         "extras": lambda: extras_table(root),
+        "evogym-tasks": evogym_tasks,
     }
     with_argument = {"reference-summary", "walker-claims", "walker-variants"}
 
