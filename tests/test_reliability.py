@@ -340,6 +340,22 @@ def test_a_killed_report_or_export_leaves_nothing_half_written(command, made, tm
         assert cli(*again, str(out), site=faulty_site).returncode == 0
     assert (out / made).is_dir() and not list(out.rglob("*gdabench-*")) and not list(out.rglob("*.tmp"))
     assert (out / "report" / "report.html").exists() or command == ["export"]
+    assert locks_left(out, out) == []  # the lock file the kill left is gone too
+
+
+def locks_left(where: Path, run: Path) -> list[str]:
+    """Lock files under ``where`` other than the run's own (held while a run writes it)."""
+    return sorted(str(p.relative_to(where)) for p in where.rglob("*.lock") if p != run / ".lock")
+
+
+def test_report_and_export_leave_no_lock_files(tmp_path):
+    """They once left an empty ``.<name>.lock`` beside each output, even after success."""
+    out = tmp_path / "run"
+    assert CliRunner().invoke(app, ["compare", "-d", "random", "--budget", "50", "-q", "--out", str(out)]).exit_code == 0
+    for command in (["export"], ["export", "-f", "csv"], ["report", "--out", str(tmp_path / "elsewhere")]):
+        assert CliRunner().invoke(app, [*command, str(out)]).exit_code == 0
+    assert (out / "report" / "report.html").exists() and (out / "export" / "evaluations.csv").exists()
+    assert locks_left(tmp_path, out) == []
 
 
 # -- input errors: one line, exit 2, nothing made ----------------------------------------------------
