@@ -44,12 +44,14 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass, fields, replace
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 import torch
 
+from ... import cpu
 from ...body import Body, as_body, invalid_reason, mutate, random_body
 from ...designer import Designer, top_k
 from ...errors import GdabenchError
@@ -119,6 +121,13 @@ class GenerationalDiffusion(Designer):
         config.check_population(self.population)
         self.prior_bodies = load_prior(config.prior, config.prior_top, self.shape) if config.prior else []
         self._training = choose_backend(config, self.shape, self.population, self.budget)
+        if config.device == "cpu" and cpu.choice() == "avx2" and cpu.pinnable() and not cpu.pinned():
+            warnings.warn(
+                "gda: torch was imported before gdabench, so its kernels use this CPU's own instruction set: "
+                "this run's rows may differ on another CPU (import gdabench first; see gdabench.cpu)",
+                RuntimeWarning,
+                stacklevel=2,
+            )
 
         self.survivors: list[Survivor] = []
         self.evaluated: list[tuple[np.ndarray, float]] = []  # every told body, for the pool's reward model
