@@ -48,7 +48,7 @@ def _cpuinfo() -> tuple[str, set[str]]:
             text = fh.read()
     except OSError:
         return platform.processor() or platform.machine(), set()
-    model, flags = "", set()
+    model, flags = "", set[str]()
     for line in text.splitlines():
         key, _, value = line.partition(":")
         if key.strip() == "model name" and not model:

@@ -106,7 +106,7 @@ class Plan:
         chosen += [("designer", choice) for choice in exp.designers] if designers else []
         chosen += [("environment", choice) for choice in exp.envs]
         for kind, choice in chosen:
-            spec = reg.get(kind, choice.name).spec  # type: ignore[arg-type]
+            spec = reg.get(kind, choice.name).spec
             settings = spec.load_settings()
             if settings is not None:
                 settings(**check_params(kind, choice.label, settings, {**spec.defaults, **choice.params}))
