@@ -200,6 +200,25 @@ def test_a_kill_mid_generation_keeps_the_bodies_it_evaluated(tmp_path, faulty_si
     assert not (out / "outcomes").exists()
 
 
+def snapshot(out: Path) -> dict[str, tuple[int, int]]:
+    return {str(p): (p.stat().st_mtime_ns, p.stat().st_size) for p in out.rglob("*") if p.is_file()}
+
+
+def test_workers_stop_writing_the_moment_the_driver_is_killed(tmp_path, faulty_site):
+    """The run directory has one writer: with it killed, its trial workers (and their evaluation workers)
+    once went on for seconds and wrote outcome files into the directory of a run nobody held."""
+    out, log = tmp_path / "run", tmp_path / "evaluated.txt"
+    proc = cli(*ARGS, "--jobs", "2", "--out", str(out), site=faulty_site, background=True,
+               env={"GDABENCH_FAULTY_DELAY": "0.05", "GDABENCH_FAULTY_LOG": str(log)})
+    wait_for(lambda: len(list(out.glob("outcomes/*/*"))) >= 4, proc, "outcomes written by the workers")
+    proc.kill()
+    proc.wait(timeout=30)
+    before, evaluated = snapshot(out), log.read_text()
+    time.sleep(2.5)  # the old watcher threads noticed within a second, and an evaluation then still finished
+    assert snapshot(out) == before
+    assert log.read_text() == evaluated  # and nothing was evaluated any more
+
+
 def test_wall_time_adds_up_the_first_run_and_every_resume(tmp_path, faulty_site, reference):
     """run.json once had no wall time but its timestamps, which either count only the last resume or the
     pauses between the parts; it keeps each part's time and their sum (a part killed with kill -9 records none)."""

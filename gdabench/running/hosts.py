@@ -283,8 +283,8 @@ class LocalProcesses(TrialWorkers):
         driver_end, worker_end = self._ctx.Pipe()
         host = TrialHost(*self.args)
         held = self._ctx.Value("i", 0, lock=False)  # changed only under the spare count's lock
-        process = self._ctx.Process(
-            target=_serve, args=(worker_end, host, os.getpid(), self.spare, held), daemon=False, name="gdabench-trial"
+        process = spawning.process(
+            self._ctx, _serve, (worker_end, host, os.getpid(), self.spare, held), daemon=False, name="gdabench-trial"
         )
         spawning.start(process)
         worker_end.close()
