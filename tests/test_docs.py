@@ -303,3 +303,17 @@ def test_readme_python_example_runs_as_a_script_anywhere_and_prints_what_it_show
     assert result.returncode == 0, result.stderr
     strip = lambda text: [line.rstrip() for line in text.splitlines() if not line.startswith("run directory:")]  # noqa: E731
     assert strip(result.stdout) == strip(code.group(2))
+
+
+def test_every_output_a_page_links_to_is_committed_and_published():
+    """mkdocs once left out docs/benchmarks/output/, so the pages' links to its JSON files were dead on the site."""
+    import pathspec
+
+    excluded = re.search(r"exclude_docs: \|\n((?:  .*\n)+)", (ROOT / "mkdocs.yml").read_text()).group(1).split()
+    spec = pathspec.PathSpec.from_lines("gitwildmatch", excluded)
+    docs = ROOT / "docs"
+    for page in docs.rglob("*.md"):
+        for target in re.findall(r"\]\((output/[^)#]+)\)", page.read_text()):
+            path = (page.parent / target).resolve()
+            assert path.is_file(), f"{page.relative_to(ROOT)} links to {target}, which is not committed"
+            assert not spec.match_file("/" + str(path.relative_to(docs))), f"mkdocs leaves out {target}"
