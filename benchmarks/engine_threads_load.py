@@ -2,6 +2,7 @@
 them (``GDABENCH_ENGINE_THREADS=auto``) and with Numba's default (a thread per CPU).
 
     python benchmarks/engine_threads_load.py --repeats 3
+    python benchmarks/engine_threads_load.py --engine-only --repeats 5    # the engine's step alone, seconds
 
 Each arm runs the same command (25 random bodies learning 2,048 timesteps in lockstep on the walker,
 in the command's own process) and the arms alternate, so that the machine's other load falls on all of
@@ -38,10 +39,52 @@ def run(threads: str, busy: bool, out: Path) -> float:
             spinner.wait()
 
 
+def engine_only(repeats: int, steps: int = 300) -> None:
+    """The engine's batch step alone (25 bodies), on one thread and on every CPU, with and without one busy
+    process beside it: what the choice of threads is worth, in seconds rather than a run's minutes."""
+    import numba
+    import numpy as np
+
+    import gdabench
+    from gdabench.envs.voxel.walker import WalkerBatch
+
+    rng = np.random.default_rng(0)
+    batch = WalkerBatch([gdabench.random_body(rng).text for _ in range(25)])
+    batch.reset()
+    actions = rng.uniform(0.6, 1.6, size=(steps, batch.num_envs, max(batch.act_sizes)))
+    cpus = numba.config.NUMBA_NUM_THREADS
+    arms = {(threads, busy): [] for busy in (False, True) for threads in sorted({1, cpus})}
+    for _ in range(repeats):
+        for (threads, busy), times in arms.items():
+            numba.set_num_threads(threads)
+            batch.step(actions[0])  # compiled and warm
+            spinner = subprocess.Popen([sys.executable, "-c", SPIN]) if busy else None
+            time.sleep(0.2 if busy else 0)
+            start = time.perf_counter()
+            for a in actions:
+                batch.step(a)
+            times.append(time.perf_counter() - start)
+            if spinner is not None:
+                spinner.kill()
+                spinner.wait()
+    for (threads, busy), times in arms.items():
+        rate = steps * 25 / statistics.median(times)
+        print(f"{threads} thread(s), {'busy' if busy else 'quiet'}: median {statistics.median(times):.2f} s "
+              f"({rate:,.0f} env steps/s; {', '.join(f'{t:.2f}' for t in times)}; load {os.getloadavg()[0]:.1f})")
+    quiet = min(statistics.median(arms[(t, False)]) for t in sorted({1, cpus}))
+    for threads in sorted({1, cpus}):
+        ratio = statistics.median(arms[(threads, True)]) / quiet
+        print(f"busy with {threads} thread(s) / quiet with the faster choice: x{ratio:.2f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--engine-only", action="store_true", help="time the engine's batch step alone")
     args = parser.parse_args()
+    if args.engine_only:
+        engine_only(args.repeats)
+        return
     cpus = os.cpu_count() or 1
     arms = {"auto, quiet": ("auto", False), "auto, busy": ("auto", True), f"{cpus} threads, busy": (str(cpus), True)}
     times: dict[str, list[float]] = {arm: [] for arm in arms}
