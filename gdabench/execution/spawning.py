@@ -69,7 +69,7 @@ import os
 try:
     import ctypes
     ctypes.CDLL(None).prctl(1, 9)  # PR_SET_PDEATHSIG, SIGKILL: the kernel kills us when the parent dies
-except (OSError, AttributeError):  # not Linux: the workers' own watcher threads (exit_when_orphaned) remain
+except (OSError, AttributeError, TypeError):  # not Linux: the watcher threads (exit_when_orphaned) remain
     pass
 if os.getppid() != parent:  # it died before the line above could take effect
     os._exit(0)
