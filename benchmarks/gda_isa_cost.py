@@ -27,6 +27,8 @@ def run(isa: str, out: Path) -> pd.DataFrame:
                "--budget", "100", "--seeds", "0", "--jobs", "1", "-q", "--no-report", "--out", str(out)]  # fmt: skip
     subprocess.run(command, env=env, check=True)
     rows = pd.read_parquet(out / "evaluations.parquet")
+    if not rows["compiled"].dropna().astype(bool).all():  # torch.compile failed and gda went on eagerly
+        raise SystemExit(f"{isa}: gda ran without its compiled kernels; nothing to compare")
     return rows.groupby("generation")[["train_seconds", "sample_seconds"]].first().iloc[2:]
 
 
