@@ -230,7 +230,7 @@ def test_the_console_script_exits_with_its_code_past_native_teardown(tmp_path, a
     done = subprocess.run([sys.executable, str(script), *args], capture_output=True, text=True, timeout=120)
     assert done.returncode == code, done.stderr
     assert done.stdout.rstrip().endswith("atexit ran")
-    assert ("random" in done.stdout) if code == 0 else done.stderr.startswith("error: unknown")
+    assert ("random" in done.stdout) if code == 0 else done.stderr.startswith("error: no designer, environment or controller")
 
 
 # -- what a newcomer's typos met (issue 57) ---------------------------------------------------------
