@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from . import cpu as _cpu  # noqa: F401 - first: pins torch's kernels before anything imports torch (gdabench.cpu)
 from .body import DEFAULT_SHAPE, EMPTY, H_ACT, RIGID, SOFT, V_ACT, Body, as_body, is_valid, mutate, random_body
 from .config import Experiment, PluginChoice
 from .designer import Designer, ranking_rewards, top_k

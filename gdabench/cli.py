@@ -31,7 +31,7 @@ from .plugins import KINDS, registry
 from .report.diversity import NEAR_COPY, SURVIVORS
 from .report.summary import failure_counts, nothing_measured, summarize, thresholds
 from .report.tables import summary_cells
-from .results import RunDirectory
+from .results import RunDirectory, is_file
 from .running.progress import ProgressDisplay
 from .running.runner import compare as run_compare
 
@@ -79,7 +79,7 @@ class _Guard:
         if os.environ.get("GDABENCH_DEBUG"):
             return False
         hint = ""
-        if self.run_dir is not None and (self.run_dir / "run.json").exists():
+        if self.run_dir is not None and is_file(self.run_dir / "run.json"):
             hint = f" (results so far are in {self.run_dir}; continue with: gdabench compare --resume {self.run_dir})"
         if isinstance(exc, KeyboardInterrupt):
             raise _fail(
@@ -143,8 +143,10 @@ def info(
     with _Guard():
         reg = registry()
         found = [(k, reg.get(k, name)) for k in _kinds(kind) if name in reg.names(k)]  # type: ignore[arg-type]
+        if not found and kind:
+            reg.get(_kinds(kind)[0], name)  # raises the not-found error, with suggestions
         if not found:
-            reg.get(_kinds(kind)[0] if kind else "designer", name)  # raises the not-found error, with suggestions
+            raise _unknown_plugin(reg, name)
         for k, item in found:
             console.print(
                 escape(f"{k} {item.name} ({item.distribution} {item.version}): {item.spec.description}".strip()),
@@ -157,6 +159,16 @@ def info(
             for row in rows:
                 table.add_row(*map(escape, row))
             console.print(table if rows else "no parameters")
+
+
+def _unknown_plugin(reg: Any, name: str) -> ConfigError:
+    """No designer, environment or controller is called ``name``: say so, with the closest name of any kind."""
+    import difflib
+
+    known = sorted({n for k in KINDS for n in reg.names(k)})
+    close = difflib.get_close_matches(name, known, n=1)
+    hint = f" Did you mean {close[0]!r}?" if close else ""
+    return ConfigError(f"no designer, environment or controller is called {name!r} (see: gdabench list).{hint}")
 
 
 # -- run / compare --------------------------------------------------------------------------------

@@ -31,14 +31,18 @@ DEFAULT_SEEDS = (0,)
 
 
 def parse_value(text: str) -> Any:
-    """Parse a parameter value: JSON (numbers, true/false/null, lists) or else a plain string."""
+    """Parse a parameter value: JSON (numbers, true/false/null, lists) or else a plain string.  A whole
+    number written with an exponent (``1e5``) is an integer, as its writer meant, and stays one in run.json."""
     lowered = text.strip().lower()
     if lowered in ("true", "false", "none", "null"):
         return {"true": True, "false": False}.get(lowered)
     try:
-        return json.loads(text)
+        value = json.loads(text)
     except ValueError:
         return text
+    if isinstance(value, float) and "e" in lowered and value.is_integer() and abs(value) <= 2**53:
+        return int(value)
+    return value
 
 
 def parse_params(items: Sequence[str] | None, what: str = "parameter") -> dict[str, Any]:

@@ -176,11 +176,15 @@ def versions(distributions: Mapping[str, str]) -> dict[str, Any]:
 
 
 def platform_info() -> dict[str, Any]:
+    """The machine, its CPU (model, the instruction sets that choose torch's kernels, the kernels in force)."""
+    from . import cpu
+
     return {
         "system": platform.system(),
         "release": platform.release(),
         "machine": platform.machine(),
         "cpus": os.cpu_count(),
+        "cpu": cpu.info(),
     }
 
 
@@ -192,8 +196,31 @@ class Checkpoint:
     next_generation: int
 
 
+def is_file(path: Path) -> bool:
+    """Whether ``path`` is a file; False also for a path the system cannot look up (a name too long)."""
+    try:
+        return path.is_file()
+    except OSError:
+        return False
+
+
+def is_dir(path: Path) -> bool:
+    """Whether ``path`` is a directory; False also for a path the system cannot look up."""
+    try:
+        return path.is_dir()
+    except OSError:
+        return False
+
+
 def check_out_dir(path: Path) -> None:
     """Refuse an output path that cannot become a run directory, before anything is created."""
+    try:
+        _check_out_dir(path)
+    except OSError as exc:  # e.g. a name longer than the filesystem allows
+        raise ConfigError(f"output path {path}: {exc.strerror or exc}") from None
+
+
+def _check_out_dir(path: Path) -> None:
     if path.exists() and not path.is_dir():
         raise ConfigError(f"output path {path} exists and is not a directory")
     ancestor = path
@@ -291,7 +318,11 @@ class RunDirectory:
     def open(cls, path: str | Path) -> RunDirectory:
         """Open an existing run for reading (call :meth:`lock` to write to it)."""
         run = cls(path)
-        if not run.path.is_dir():
+        try:
+            is_dir = run.path.is_dir()
+        except OSError as exc:  # e.g. a name longer than the filesystem allows
+            raise RunDirectoryError(f"{run.path}: {exc.strerror or exc}") from None
+        if not is_dir:
             raise RunDirectoryError(f"{run.path} is not a directory")
         if not (run.path / RUN_JSON).is_file():
             raise RunDirectoryError(f"{run.path} is not a gdabench run (no {RUN_JSON})")

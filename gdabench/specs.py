@@ -48,10 +48,15 @@ class Factory:
 
 @dataclass(frozen=True)
 class Spec:
+    """``settings`` (optional): a light callable, by import string, that takes the factory's parameters and
+    raises :class:`~gdabench.errors.ConfigError` for bad ones (e.g. a frozen settings dataclass); the harness
+    calls it before importing the factory, so a typo is refused before torch loads."""
+
     name: str
     factory: str | Callable[..., Any]
     description: str
     defaults: Mapping[str, Any] = field(default_factory=dict)
+    settings: str | Callable[..., Any] | None = None
 
     kind: ClassVar[str] = "plugin"
 
@@ -68,6 +73,10 @@ class Spec:
     def load(self) -> Callable[..., Any]:
         """Import and return the factory."""
         return _load(self.factory, self.kind, self.name)
+
+    def load_settings(self) -> Callable[..., Any] | None:
+        """Import and return the settings checker, if the spec names one."""
+        return None if self.settings is None else _load(self.settings, self.kind, self.name)
 
     def recipe(self, params: Mapping[str, Any]) -> Factory:
         """A picklable recipe: the factory with the spec's defaults overridden by ``params``."""

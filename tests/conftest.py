@@ -14,6 +14,16 @@ import pytest
 from gdabench.plugins import Registry
 
 FIXTURE = Path(__file__).parent / "fixtures" / "faulty_plugin"
+#: tests measured to take longer than a few seconds (``python tests/slow_tests.py`` remakes the list from a
+#: run's ``--durations=0`` report); they are marked ``slow``, so ``-m "not slow"`` runs the fast part
+SLOW = Path(__file__).parent / "slow_tests.txt"
+
+
+def pytest_collection_modifyitems(config, items):
+    slow = {line.split()[-1] for line in SLOW.read_text().splitlines() if line.strip() and not line.startswith("#")}
+    for item in items:
+        if item.nodeid in slow:
+            item.add_marker(pytest.mark.slow)
 
 
 @pytest.fixture(scope="session")

@@ -230,4 +230,62 @@ def test_the_console_script_exits_with_its_code_past_native_teardown(tmp_path, a
     done = subprocess.run([sys.executable, str(script), *args], capture_output=True, text=True, timeout=120)
     assert done.returncode == code, done.stderr
     assert done.stdout.rstrip().endswith("atexit ran")
-    assert ("random" in done.stdout) if code == 0 else done.stderr.startswith("error: unknown")
+    assert ("random" in done.stdout) if code == 0 else done.stderr.startswith("error: no designer, environment or controller")
+
+
+# -- what a newcomer's typos met (issue 57) ---------------------------------------------------------
+def one_error_line(result) -> str:
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert result.exit_code == 2 and len(lines) == 1 and lines[0].startswith("error: "), result.stderr
+    assert "internal error" not in lines[0]
+    return lines[0]
+
+
+def test_info_of_an_unknown_name_names_every_kind():
+    line = one_error_line(invoke("info", "gdaa"))
+    assert "no designer, environment or controller is called 'gdaa'" in line and "Did you mean 'gda'?" in line
+    assert "unknown environment 'gdaa'" in one_error_line(invoke("info", "gdaa", "--kind", "envs"))
+
+
+def test_paths_too_long_for_the_filesystem_are_one_line(tmp_path):
+    """An --out name over the filesystem's limit once gave a 59-line traceback."""
+    run = tmp_path / "run"
+    assert invoke("compare", "-d", "random", "--budget", "25", "-q", "--no-report", "--out", str(run)).exit_code == 0
+    long = tmp_path / ("a" * 300)
+    for args in (["compare", "-d", "random", "--budget", "25", "-q", "--out", str(long)],
+                 ["compare", "-d", "random", "--budget", "25", "-q", "--out", str(long / "run")],
+                 ["report", str(run), "--out", str(long)], ["export", str(run), "--out", str(long)],
+                 ["export", str(run), "-f", "csv", "--out", str(long)], ["report", str(long)],
+                 ["compare", "--resume", str(long)]):  # fmt: skip
+        assert "File name too long" in one_error_line(runner.invoke(app, args, env={"COLUMNS": "200"})), args
+
+
+def test_ppo_counts_have_an_upper_bound_and_stay_integers(tmp_path):
+    line = one_error_line(invoke("compare", "-d", "ga", "--env", "walker", "-c", "ppo[timesteps=1e99]", "--out", str(tmp_path / "a")))
+    assert "ppo: timesteps must be an integer from 1 to 1,000,000,000, got 1e+99" in line
+    from gdabench.config import parse_value
+
+    assert parse_value("1e5") == 100000 and isinstance(parse_value("1e5"), int)  # stored as 100000, not 100000.0
+    assert isinstance(parse_value("1.0"), float) and isinstance(parse_value("2.5e-4"), float)
+
+
+def test_a_bad_ppo_parameter_is_refused_before_torch_is_imported():
+    """It took 17 s to refuse on a busy machine: the controller (torch, TorchRL) was imported to check it."""
+    import subprocess
+    import sys
+
+    script = ("import sys\nfrom typer.testing import CliRunner\nfrom gdabench.cli import app\n"
+              "r = CliRunner().invoke(app, ['compare', '-d', 'ga', '--env', 'walker', '-c', 'ppo[n_epochs=0]', '-q'])\n"
+              "print(r.exit_code, 'torch' in sys.modules, r.stderr.strip())\n")  # fmt: skip
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120).stdout.split(" ", 2)
+    assert out[:2] == ["2", "False"] and "ppo: n_epochs must be a positive integer" in out[2], out
+
+
+def test_legends_count_one_seed_in_the_singular():
+    import numpy as np
+
+    from gdabench.report.plots import best_so_far_figure
+
+    x = np.arange(3.0)
+    fig = best_so_far_figure({"ga": (x, x, x, x), "cppn": (x, x, x, x)}, seeds={"ga": 1, "cppn": 2})
+    assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == ["ga (1 seed)", "cppn (2 seeds)"]

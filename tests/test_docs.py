@@ -290,3 +290,30 @@ def test_plugin_guide_example_runs_in_compare(example_site, tmp_path):
     assert json.loads((out / "run.json").read_text())["versions"]["plugins"]["gdabench-checkerboard"] == "0.1.0"
     bad = gdabench_cli("run", "hill-climber[rate=2]", "--env", "checkerboard", "--out", str(tmp_path / "bad"), path=example_site)
     assert bad.returncode == 2 and "hill-climber: rate must be in (0, 1]" in bad.stderr
+
+
+def test_readme_python_example_runs_as_a_script_anywhere_and_prints_what_it_shows(tmp_path):
+    """It once read a run by a path relative to the repository (a traceback elsewhere) and printed nothing."""
+    code = re.search(r"```python\n(import gdabench\n\nrun = gdabench\.compare.*?)```\n\n```text\n(.*?)```", README, re.S)
+    assert code, "the README's Python example (and the output it shows) is gone"
+    (tmp_path / "example.py").write_text(code.group(1))
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
+    result = subprocess.run([sys.executable, "example.py"], cwd=tmp_path, capture_output=True, text=True, env=env,
+                            timeout=600)  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    strip = lambda text: [line.rstrip() for line in text.splitlines() if not line.startswith("run directory:")]  # noqa: E731
+    assert strip(result.stdout) == strip(code.group(2))
+
+
+def test_every_output_a_page_links_to_is_committed_and_published():
+    """mkdocs once left out docs/benchmarks/output/, so the pages' links to its JSON files were dead on the site."""
+    import pathspec
+
+    excluded = re.search(r"exclude_docs: \|\n((?:  .*\n)+)", (ROOT / "mkdocs.yml").read_text()).group(1).split()
+    spec = pathspec.PathSpec.from_lines("gitwildmatch", excluded)
+    docs = ROOT / "docs"
+    for page in docs.rglob("*.md"):
+        for target in re.findall(r"\]\((output/[^)#]+)\)", page.read_text()):
+            path = (page.parent / target).resolve()
+            assert path.is_file(), f"{page.relative_to(ROOT)} links to {target}, which is not committed"
+            assert not spec.match_file("/" + str(path.relative_to(docs))), f"mkdocs leaves out {target}"

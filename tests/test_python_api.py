@@ -180,5 +180,7 @@ def test_a_generation_learning_in_lockstep_tells_its_timesteps_and_speed(tmp_pat
     gdabench.compare(designers="random", env="walker", controller="ppo[timesteps=512]", seeds=[0, 1][:jobs], budget=3,
                      population=3, out=tmp_path / "r", listener=listener, execution=Execution(jobs=jobs))
     # the batch's last rollout is always told (others every 2 s at most), while the generation's 3 bodies run
-    finals = [n for n in listener.notes if n[2].startswith("3 bodies learning 512/512 timesteps, ")]
-    assert len(finals) == jobs and all(n[:2] == (0, 3) for n in finals) and finals[0][2].endswith(" env steps/s")
+    # figures first, so that a narrow terminal cuts the words rather than them
+    finals = [n for n in listener.notes if n[2].startswith("512/512 timesteps, ")]
+    assert len(finals) == jobs and all(n[:2] == (0, 3) for n in finals)
+    assert finals[0][2].endswith(" env steps/s: 3 bodies learning")

@@ -200,6 +200,25 @@ def test_a_kill_mid_generation_keeps_the_bodies_it_evaluated(tmp_path, faulty_si
     assert not (out / "outcomes").exists()
 
 
+def snapshot(out: Path) -> dict[str, tuple[int, int]]:
+    return {str(p): (p.stat().st_mtime_ns, p.stat().st_size) for p in out.rglob("*") if p.is_file()}
+
+
+def test_workers_stop_writing_the_moment_the_driver_is_killed(tmp_path, faulty_site):
+    """The run directory has one writer: with it killed, its trial workers (and their evaluation workers)
+    once went on for seconds and wrote outcome files into the directory of a run nobody held."""
+    out, log = tmp_path / "run", tmp_path / "evaluated.txt"
+    proc = cli(*ARGS, "--jobs", "2", "--out", str(out), site=faulty_site, background=True,
+               env={"GDABENCH_FAULTY_DELAY": "0.05", "GDABENCH_FAULTY_LOG": str(log)})
+    wait_for(lambda: len(list(out.glob("outcomes/*/*"))) >= 4, proc, "outcomes written by the workers")
+    proc.kill()
+    proc.wait(timeout=30)
+    before, evaluated = snapshot(out), log.read_text()
+    time.sleep(2.5)  # the old watcher threads noticed within a second, and an evaluation then still finished
+    assert snapshot(out) == before
+    assert log.read_text() == evaluated  # and nothing was evaluated any more
+
+
 def test_wall_time_adds_up_the_first_run_and_every_resume(tmp_path, faulty_site, reference):
     """run.json once had no wall time but its timestamps, which either count only the last resume or the
     pauses between the parts; it keeps each part's time and their sum (a part killed with kill -9 records none)."""
@@ -340,6 +359,22 @@ def test_a_killed_report_or_export_leaves_nothing_half_written(command, made, tm
         assert cli(*again, str(out), site=faulty_site).returncode == 0
     assert (out / made).is_dir() and not list(out.rglob("*gdabench-*")) and not list(out.rglob("*.tmp"))
     assert (out / "report" / "report.html").exists() or command == ["export"]
+    assert locks_left(out, out) == []  # the lock file the kill left is gone too
+
+
+def locks_left(where: Path, run: Path) -> list[str]:
+    """Lock files under ``where`` other than the run's own (held while a run writes it)."""
+    return sorted(str(p.relative_to(where)) for p in where.rglob("*.lock") if p != run / ".lock")
+
+
+def test_report_and_export_leave_no_lock_files(tmp_path):
+    """They once left an empty ``.<name>.lock`` beside each output, even after success."""
+    out = tmp_path / "run"
+    assert CliRunner().invoke(app, ["compare", "-d", "random", "--budget", "50", "-q", "--out", str(out)]).exit_code == 0
+    for command in (["export"], ["export", "-f", "csv"], ["report", "--out", str(tmp_path / "elsewhere")]):
+        assert CliRunner().invoke(app, [*command, str(out)]).exit_code == 0
+    assert (out / "report" / "report.html").exists() and (out / "export" / "evaluations.csv").exists()
+    assert locks_left(tmp_path, out) == []
 
 
 # -- input errors: one line, exit 2, nothing made ----------------------------------------------------

@@ -17,6 +17,7 @@ def gdabench_controllers() -> list[ControllerSpec]:
         ControllerSpec(
             name="ppo",
             factory="gdabench.controllers.ppo.controller:PPO",
+            settings="gdabench.controllers.ppo.config:PPOConfig",  # checked before torch is imported
             description="PPO on TorchRL with Evolution Gym 2.0's settings; reward = best evaluation (timesteps=1e6 is "
                         "faithful)",
         ),

@@ -26,6 +26,7 @@ the controller PPO trained for it.  On 60 random 5x5 bodies the best of 4 patter
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -34,6 +35,7 @@ import numpy as np
 
 from ..environment import Controller, Evaluation
 from ..errors import ConfigError
+from ..execution.evaluation import report_progress
 
 #: the attribute of ``env.unwrapped`` that describes the actuator voxels
 ACTUATOR_ATTRIBUTE = "actuator_voxels"
@@ -106,6 +108,7 @@ class OpenLoop(Controller):
         )
         self.trials = int(trials)
         self.period_range = (low, high)
+        self._steps, self._started, self._told = 0, 0.0, 0.0  # env steps played here, for the progress note
 
     def patterns(self, seed: int) -> list[Pattern]:
         """The configured pattern, then ``trials - 1`` random ones drawn from ``seed``."""
@@ -134,8 +137,20 @@ class OpenLoop(Controller):
                 steps += n
         finally:
             env.close()
+        self._tell_speed(steps)
         best = int(np.argmax(returns))
         return Evaluation(returns[best], {"env_steps": steps, "best_trial": best})
+
+
+    def _tell_speed(self, steps: int) -> None:
+        """The env steps played in this process so far and their rate, for the progress display (every 2 s)."""
+        now = time.perf_counter()
+        if not self._steps:
+            self._started = now - 1e-9
+        self._steps += steps
+        if now - self._told >= 2.0:
+            self._told = now
+            report_progress(f"{self._steps:,} env steps, {self._steps / (now - self._started):,.0f} env steps/s")
 
 
 def run_episode(env: Any, pattern: Pattern, actuators: np.ndarray, *, seed: int, max_steps: int) -> tuple[float, int]:

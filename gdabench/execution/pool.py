@@ -265,8 +265,8 @@ class ProcessBackend(Backend):
 
     def start(self) -> _Process:
         driver_end, worker_end = self._ctx.Pipe()
-        process = self._ctx.Process(
-            target=_serve, args=(worker_end, self.warm, os.getpid()), daemon=True, name="gdabench-worker"
+        process = spawning.process(
+            self._ctx, _serve, (worker_end, self.warm, os.getpid()), daemon=True, name="gdabench-worker"
         )
         spawning.start(process)
         worker_end.close()

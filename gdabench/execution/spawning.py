@@ -9,17 +9,22 @@ threads can deadlock), without what spawning does by default that a user would n
   print a traceback.  Children start with Ctrl-C ignored (they inherit it across ``exec``); the process
   that started them decides what an interrupt means and stops them.
 - Workers run side by side, one core each (:func:`one_core`).
+- A worker dies with the process that started it (:func:`process`): the moment it is killed, not a
+  second later, so that a killed run's workers cannot write into its directory after its one writer
+  has gone.
 """
 
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
 import sys
 import threading
 import types
+from multiprocessing.context import SpawnContext
 from multiprocessing.process import BaseProcess
-from typing import Iterator
+from typing import Any, Callable, Iterator, Sequence
 
 _share_script = True
 
@@ -56,6 +61,40 @@ def _ctrl_c_ignored() -> Iterator[None]:
         yield
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+#: run in a new worker before anything else of it is unpickled (so before any module it needs is imported)
+_DIE_WITH_PARENT = """
+import os
+try:
+    import ctypes
+    ctypes.CDLL(None).prctl(1, 9)  # PR_SET_PDEATHSIG, SIGKILL: the kernel kills us when the parent dies
+except (OSError, AttributeError, TypeError):  # not Linux: the watcher threads (exit_when_orphaned) remain
+    pass
+if os.getppid() != parent:  # it died before the line above could take effect
+    os._exit(0)
+"""
+
+
+class _DieWithParent:
+    """Unpickles, in the worker, as a call that ties the worker's life to its parent's."""
+
+    def __init__(self, parent: int):
+        self.parent = parent
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return exec, (_DIE_WITH_PARENT, {"parent": self.parent})
+
+
+def process(ctx: SpawnContext, target: Callable[..., Any], args: Sequence[Any], **options: Any) -> BaseProcess:
+    """A spawned process running ``target(*args)`` that dies with this process, from its first line on.
+
+    A spawned child first unpickles its target and arguments, importing what they need (a second or
+    more: numpy, torch), and only then runs the target.  So the target here is the built-in ``exec``,
+    and its namespace unpickles the parent watch before the real target and arguments.
+    """
+    namespace = {"watch": _DieWithParent(os.getpid()), "target": target, "args": tuple(args)}
+    return ctx.Process(target=exec, args=("target(*args)", namespace), **options)
 
 
 def start(process: BaseProcess) -> None:

@@ -31,7 +31,7 @@ from ..config import Experiment
 from ..errors import ConfigError, GdabenchError, RunDirectoryError
 from ..names import file_name
 from ..plugins import Registry, registry
-from ..results import RunDirectory
+from ..results import RunDirectory, is_file
 from ..running.plan import Plan
 from ..statuses import COUNTED, OK
 from . import plots
@@ -573,7 +573,7 @@ def _write(report: Report, tables: dict[str, tuple[pd.DataFrame, str]]) -> None:
     files.update({name: table.to_csv(index=False).encode() for name, (table, _) in tables.items()})
     files["summary.md"] = render_markdown(report).encode()
     files["report.html"] = render_html(report).encode()
-    if report.out.exists() and not report.out.is_dir():
+    if is_file(report.out):
         raise ConfigError(f"cannot write the report to {report.out}: it is a file")
     with staged_folder(report.out, whole=False, last="report.html") as staging:
         for name, data in files.items():

@@ -35,7 +35,7 @@ import pandas as pd
 from ..body import Body
 from ..errors import ConfigError
 from ..names import file_name
-from ..results import RunDirectory, atomic_write_bytes
+from ..results import RunDirectory, atomic_write_bytes, is_dir, is_file
 from ..statuses import OK
 from .runtimes import RunTrace, run_traces, with_run_id
 from .staging import staged_folder, writing
@@ -65,12 +65,12 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None) -> 
         raise ConfigError(f"{run.path} has no evaluations yet: nothing to export")
     target = Path(out) if out is not None else default_out(run, fmt)
     if fmt == "csv":
-        if target.is_dir():
+        if is_dir(target):
             raise ConfigError(f"--out {target} is a directory; give a file name for the CSV")
         with writing(target):
             atomic_write_bytes(target, frame.to_csv(index=False).encode())
         return target
-    if target.exists() and not target.is_dir():
+    if is_file(target):
         raise ConfigError(f"--out {target} is a file; IOHprofiler data is a directory")
     write_ioh(frame, target)
     return target

@@ -105,7 +105,8 @@ def best_so_far_figure(
     ax = fig.subplots()
     for i, (designer, (x, median, low, high)) in enumerate(curves.items()):
         colour = f"C{i % 10}"
-        ax.plot(x, median, color=colour, lw=1.8, label=f"{designer} ({seeds[designer]} seeds)", drawstyle="steps-post")
+        label = f"{designer} ({seeds[designer]} seed{'s' if seeds[designer] != 1 else ''})"
+        ax.plot(x, median, color=colour, lw=1.8, label=label, drawstyle="steps-post")
         ax.fill_between(x, low, high, color=colour, alpha=0.2, lw=0, step="post")
     if threshold is not None:
         ax.axhline(threshold, color="0.3", ls="--", lw=1, label=f"threshold {threshold:g}")

@@ -2,7 +2,8 @@
 
 The new version is written into a staging folder next to ``out`` and renamed into place.  Writers of the
 same ``out`` take turns on a lock file next to it, so whatever a killed writer left (staging folders,
-temporary files) belongs to no live writer and is removed by the next one.
+temporary files) belongs to no live writer and is removed by the next one.  The lock file goes when its
+writer is done (a kill leaves it, empty, and the next writer takes it and removes it).
 """
 
 from __future__ import annotations
@@ -15,6 +16,11 @@ from pathlib import Path
 from typing import Iterator
 
 from filelock import FileLock
+
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - Windows, where filelock removes its file itself
+    fcntl = None  # type: ignore[assignment]
 
 from ..errors import GdabenchError
 from ..results import check_out_dir, write_error
@@ -35,12 +41,44 @@ def _remove_leftovers(out: Path) -> None:
 
 
 @contextlib.contextmanager
+def _exclusive(path: Path) -> Iterator[None]:
+    """Hold the lock file ``path`` and remove it when done.
+
+    filelock keeps its file on Unix, as a writer waiting on the old file could otherwise lock a removed
+    file while a newcomer locks a new one.  Here the holder removes the file only while holding it, and
+    whoever locks it checks that the path still names the file it locked, trying again if not.
+    """
+    if fcntl is None:  # pragma: no cover
+        with FileLock(path):
+            yield
+        return
+    while True:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+            current = os.stat(path)
+        except FileNotFoundError:
+            current = None
+        except BaseException:  # Ctrl-C while waiting
+            os.close(fd)
+            raise
+        if current is not None and os.path.samestat(current, os.fstat(fd)):
+            break
+        os.close(fd)  # the file its last holder removed: take the one the path names now
+    try:
+        yield
+    finally:
+        path.unlink(missing_ok=True)
+        os.close(fd)
+
+
+@contextlib.contextmanager
 def writing(out: Path) -> Iterator[None]:
     """Hold ``out``'s writers' lock and clear what killed writers left; write errors become one line."""
     check_out_dir(out.parent)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
-        with FileLock(_lock(out)):
+        with _exclusive(_lock(out)):
             _remove_leftovers(out)
             yield
     except GdabenchError:

@@ -65,6 +65,9 @@ class TrialHost:
         self._executor: Executor | None = None
         self._evaluate: Evaluate | None = None
         self._done = (0, 0)
+        self._batch, self._share = 1, cores.CpuShare()
+        #: True in a trial worker process (one of several trials side by side: one engine thread each)
+        self.in_worker = False
 
     def open(self, spec: TrialSpec, checkpoint: Checkpoint | None, done: pd.DataFrame | None) -> None:
         """Start ``spec``'s trial, or continue it from ``checkpoint`` (``done``: its rows so far)."""
@@ -93,6 +96,8 @@ class TrialHost:
         evaluate = body_by_body(evaluate, self.execution.workers * batch, outcomes, self._report)
         strategy = controller.evaluation_strategy() if controller else None
         self._evaluate = evaluate if strategy is None else functools.partial(strategy.evaluate, evaluate=evaluate)
+        self._batch = batch if self.execution.workers == 1 and self.execution.timeout is None else 1  # here, or not
+        self._share = cores.CpuShare()
 
     def _report(self, done: int, total: int, note: str = "") -> None:
         self._done = (done, total)
@@ -105,6 +110,9 @@ class TrialHost:
     def step(self) -> GenerationResult:
         """Run the open trial's next generation."""
         assert self.trial is not None and self._evaluate is not None, "open a trial first"
+        requested = os.environ.get(cores.THREADS_VARIABLE, "auto")
+        if requested.strip().lower() != "auto" or not self.in_worker:  # a worker's 'auto' is one (one_core)
+            cores.use_engine_threads(cores.engine_threads(self._batch, self._share, requested))
         with progress_to(self._note):
             result = self.trial.step(self._evaluate)
         if result.finished:
@@ -241,6 +249,7 @@ def _serve(conn: Connection, host: TrialHost, parent: int, pool: Any, held: Any)
     """A trial worker process: answer the driver's calls until it says stop or goes away."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the driver decides what an interrupt means
     host.progress = lambda bodies: conn.send((True, bodies))
+    host.in_worker = True
     cores.install(pool, held)
     spawning.one_core()
     threading.Thread(target=exit_when_orphaned, args=(parent,), daemon=True).start()
@@ -283,8 +292,8 @@ class LocalProcesses(TrialWorkers):
         driver_end, worker_end = self._ctx.Pipe()
         host = TrialHost(*self.args)
         held = self._ctx.Value("i", 0, lock=False)  # changed only under the spare count's lock
-        process = self._ctx.Process(
-            target=_serve, args=(worker_end, host, os.getpid(), self.spare, held), daemon=False, name="gdabench-trial"
+        process = spawning.process(
+            self._ctx, _serve, (worker_end, host, os.getpid(), self.spare, held), daemon=False, name="gdabench-trial"
         )
         spawning.start(process)
         worker_end.close()
@@ -341,6 +350,7 @@ class HostActor:
         cores.install(None, None)
         spawning.one_core()
         self.host = TrialHost(*args)
+        self.host.in_worker = True
 
     def call(self, method: str, args: Sequence[Any]) -> tuple[bool, Any]:
         return _answer(self.host, method, args)

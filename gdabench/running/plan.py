@@ -64,6 +64,7 @@ class Plan:
         reg = reg or registry()
         experiment.check()
         exp = experiment
+        cls._check_settings(reg, exp, designers)  # cheap checks first, before any heavy import
         envs = [cls._env(reg, choice, exp) for choice in exp.envs]  # first: they say whether a controller belongs
         controller, controller_package = None, None
         if exp.controller is not None:
@@ -96,6 +97,19 @@ class Plan:
             )  # constructor checks, before any run starts
             recipes.append(recipe)
         return cls(exp, envs, controller, controller_package, recipes)
+
+    @staticmethod
+    def _check_settings(reg: Registry, exp: Experiment, designers: bool) -> None:
+        """Refuse bad parameters of the plugins whose specs name a light ``settings`` checker (seconds
+        before their factories would import torch and fail on the same parameter)."""
+        chosen = [("controller", exp.controller)] if exp.controller is not None else []
+        chosen += [("designer", choice) for choice in exp.designers] if designers else []
+        chosen += [("environment", choice) for choice in exp.envs]
+        for kind, choice in chosen:
+            spec = reg.get(kind, choice.name).spec
+            settings = spec.load_settings()
+            if settings is not None:
+                settings(**check_params(kind, choice.label, settings, {**spec.defaults, **choice.params}))
 
     @staticmethod
     def _env(reg: Registry, choice: PluginChoice, exp: Experiment) -> EnvRecipe:

@@ -7,7 +7,19 @@ evaluation), ``evaluation`` (how episodes are scored), ``policy_file`` (saved po
 ``controller`` (the gdabench controller and :func:`replay`).
 """
 
+from __future__ import annotations
+
+from typing import Any
+
 from .config import FAITHFUL_TIMESTEPS, LAPTOP_TIMESTEPS, PPOConfig
-from .controller import PPO, replay
 
 __all__ = ["FAITHFUL_TIMESTEPS", "LAPTOP_TIMESTEPS", "PPO", "PPOConfig", "replay"]
+
+
+def __getattr__(name: str) -> Any:
+    """The controller (torch, TorchRL) is imported on first use: checking settings needs only ``config``."""
+    if name in ("PPO", "replay"):
+        from . import controller
+
+        return getattr(controller, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -22,6 +22,9 @@ FAITHFUL_TIMESTEPS = 1_000_000
 LAPTOP_TIMESTEPS = 50_000
 #: Evolution Gym 2.0 evaluates every 1e5 of its 1e6 steps: ten evaluations per training
 EVALUATIONS_PER_TRAINING = 10
+#: the most of any count (timesteps, steps per rollout, ...): 1,000 times Evolution Gym's budget per body,
+#: weeks of training; more is a typo that would run for ever
+MAX_COUNT = 1_000_000_000
 #: how an evaluation episode is scored (see :func:`gdabench.controllers.ppo.evaluation.episode_score`)
 EPISODE_ENDS = ("evogym2", "full")
 #: the learning rate over a training: constant (Evolution Gym 2.0) or decaying linearly to 0 (1.0)
@@ -120,14 +123,16 @@ class PPOConfig:
 
 
 def _positive_int(name: str, value: Any) -> int:
-    """``value`` as an int (``1e5`` from the command line is accepted), or a one-line error."""
+    """``value`` as an int (``1e5`` from the command line is accepted) of at most :data:`MAX_COUNT`, or a
+    one-line error."""
     if (
         isinstance(value, bool)
         or not isinstance(value, (int, float))
         or not math.isfinite(value)
         or value != int(value)
+        or value < 1
     ):
         raise ConfigError(f"ppo: {name} must be a positive integer, got {value!r}")
-    if value < 1:
-        raise ConfigError(f"ppo: {name} must be a positive integer, got {value!r}")
+    if value > MAX_COUNT:
+        raise ConfigError(f"ppo: {name} must be an integer from 1 to {MAX_COUNT:,}, got {float(value):g}")
     return int(value)

@@ -180,7 +180,7 @@ def _progress_notes(bodies: int, timesteps: int) -> Callable[[int], None]:
             last = now
             rate = bodies * steps / max(now - start, 1e-9)
             who = f"{bodies} bodies" if bodies > 1 else "1 body"
-            report_progress(f"{who} learning {steps:,}/{timesteps:,} timesteps, {rate:,.0f} env steps/s")
+            report_progress(f"{steps:,}/{timesteps:,} timesteps, {rate:,.0f} env steps/s: {who} learning")
 
     return note
 

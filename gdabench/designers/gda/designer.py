@@ -44,15 +44,18 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass, fields, replace
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 import torch
 
+from ... import cpu
 from ...body import Body, as_body, invalid_reason, mutate, random_body
 from ...designer import Designer, top_k
 from ...errors import GdabenchError
+from ...execution.evaluation import report_progress
 from ...params import config_signature
 from ...torch_runtime import torch_threads
 from .backend import Borrow, choose_backend
@@ -62,7 +65,7 @@ from .prior import load_prior
 from .quotas import ByCategory, FirstNew, Quota
 from .sampling import ancestral_sample, ddim_sample, denoise, noised
 from .surrogate import ridge_predictor
-from .training import TrainJob
+from .training import TrainJob, compiling_note, mark_compiled
 
 TORCH_STREAM = 1  # spawn-key branch of the designer's seed used for torch (weights, noise)
 MUTATION_RATE = 0.1  # the hybrid schedule's GA generations mutate as ``ga`` does by default
@@ -119,6 +122,13 @@ class GenerationalDiffusion(Designer):
         config.check_population(self.population)
         self.prior_bodies = load_prior(config.prior, config.prior_top, self.shape) if config.prior else []
         self._training = choose_backend(config, self.shape, self.population, self.budget)
+        if config.device == "cpu" and cpu.choice() == "avx2" and cpu.pinnable() and not cpu.pinned():
+            warnings.warn(
+                "gda: torch was imported before gdabench, so its kernels use this CPU's own instruction set: "
+                "this run's rows may differ on another CPU (import gdabench first; see gdabench.cpu)",
+                RuntimeWarning,
+                stacklevel=2,
+            )
 
         self.survivors: list[Survivor] = []
         self.evaluated: list[tuple[np.ndarray, float]] = []  # every told body, for the pool's reward model
@@ -165,6 +175,9 @@ class GenerationalDiffusion(Designer):
         """theta <- TrainDiffusionModel(S); R_1..R_n <- SampleNewGeneration(theta), with the options'
         crossover children first and random bodies for what the sample budget leaves short."""
         following = self._following(training_set)
+        spec, compiling = self._training.spec, not self._training.trainer.sampling_warm
+        if compiling:  # the first generation in this process compiles training and sampling
+            report_progress(compiling_note(spec))
         trained = self._training.train(self._job(training_set, self.generation), following)
         self._training.look_ahead(following)
         generator = trained.generator
@@ -173,6 +186,8 @@ class GenerationalDiffusion(Designer):
         sampled, more = self._sample_new(wanted - len(children), training_set, generator)
         drawn += more
         sample_seconds = time.perf_counter() - start
+        if compiling and self._training.trainer.compile:
+            mark_compiled(spec)
         fallback = self._random_new(wanted - len(children) - len(sampled))
         common = {
             "train_epochs": trained.result.epochs,

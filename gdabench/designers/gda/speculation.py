@@ -152,8 +152,8 @@ class TrainingWorker:
         self._conn, child = ctx.Pipe()
         self._abandoned = ctx.Value("q", -1, lock=False)
         self._warm = ctx.Value("b", False, lock=False)
-        self._process = ctx.Process(
-            target=_serve, args=(child, self._abandoned, self._warm, spec), daemon=True, name="gda-training"
+        self._process = spawning.process(
+            ctx, _serve, (child, self._abandoned, self._warm, spec), daemon=True, name="gda-training"
         )
         try:
             spawning.start(self._process)

@@ -19,6 +19,9 @@ from ..tasks.catalog import ENTRIES
 #: the first id of the voxel walker, kept: ``voxel/Walker-v0`` under another name
 ENV_ID = "gdabench/Walker-v2"
 MAX_EPISODE_STEPS = 500
+#: the engine splits a batch over threads from this many environments on (smaller ones step on the calling
+#: thread: waking threads costs more than they save)
+PARALLEL_FROM = 8
 
 
 def env_id(task: str) -> str:

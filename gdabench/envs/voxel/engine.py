@@ -28,13 +28,11 @@ import numba
 import numpy as np
 
 from ...body import Body, as_body
-from . import kernels
+from . import PARALLEL_FROM, kernels
 from .model import CELL, FIXED, H_ACT, RIGID, V_ACT, Object, build_object
 
 #: where Walker-v0 places the robot (voxels): x 1, bottom at y 1
 ROBOT_AT = (1, 1)
-#: smaller batches step on the calling thread: waking threads costs more than they save
-PARALLEL_FROM = 8
 
 #: pair kinds (column 2 of ``pairs``): the robot's non-adjacent and adjacent boxels, two boxels of one other
 #: object, boxels of two different objects; Evolution Gym meets a pair within one object twice
