@@ -34,7 +34,8 @@ from gdabench.envs.tasks.base import checked_body
 
 
 def gait(t: int, n: int, width: int) -> np.ndarray:
-    return np.ascontiguousarray(np.broadcast_to(1.1 + 0.5 * np.sin(2 * math.pi * t / 20 + np.arange(width)), (n, width)))
+    wave = 1.1 + 0.5 * np.sin(2 * math.pi * t / 20 + np.arange(width))
+    return np.ascontiguousarray(np.broadcast_to(wave, (n, width)))
 
 
 def task_bodies(task: str, count: int, seed: int) -> list[gdabench.Body]:

@@ -55,31 +55,15 @@ def time_batch(bodies: list[gdabench.Body], batch: int, seconds: float) -> tuple
 
 
 def evogym_rate(bodies: list[gdabench.Body], seconds: float) -> float | None:
-    """Evolution Gym's env steps/s on these bodies (Walker-v0, one env at a time), or None."""
+    """Evolution Gym's env steps/s on these bodies (Walker-v0, one env at a time), or None without it."""
     try:
         with contextlib.redirect_stdout(io.StringIO()):
             import evogym.envs  # noqa: F401
     except ImportError:
         return None
-    import gymnasium
+    from task_speed import evogym_rate as task_rate  # (a script beside this one)
 
-    steps, spent = 0, 0.0
-    for body in bodies:
-        with contextlib.redirect_stdout(io.StringIO()):
-            env = gymnasium.make("Walker-v0", body=body.voxels.astype(float))
-            env.reset()
-            n = env.action_space.shape[0]
-            start = time.perf_counter()
-            for t in range(100):
-                _, _, done, _, _ = env.step(actions(t, 1, n)[0].copy())
-                steps += 1
-                if done:
-                    break
-            spent += time.perf_counter() - start
-            env.close()
-        if spent > seconds:
-            break
-    return steps / spent
+    return task_rate("Walker-v0", bodies, seconds)
 
 
 def main() -> None:

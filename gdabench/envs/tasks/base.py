@@ -26,6 +26,8 @@ ACTION_LOW, ACTION_HIGH = 0.6, 1.6
 #: what Evolution Gym's tasks add when the simulation became unstable (the step is undone)
 UNSTABLE_PENALTY = -3.0
 
+#: what a Gymnasium environment's ``body`` is when none was given (None is a malformed body, said as such)
+NO_BODY: Any = type("NoBody", (), {"__repr__": lambda self: "no body"})()
 #: an observation part: an ``(N, w)`` array, or ``(array, widths)`` where environment ``i`` uses ``widths[i]`` columns
 Part = Union[np.ndarray, tuple[np.ndarray, np.ndarray]]
 

@@ -22,7 +22,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 
-from ..tasks.base import ACTION_HIGH, ACTION_LOW
+from ..tasks.base import ACTION_HIGH, ACTION_LOW, NO_BODY
 from . import engine, env_id
 from .batch import TaskBatch
 
@@ -61,7 +61,7 @@ def checked_actions(actions: Any, shape: tuple[int, ...], what: str) -> np.ndarr
 
 
 def _body_arg(task: str, body: Any) -> Any:
-    if body is None:
+    if body is NO_BODY:
         raise TypeError(f"{env_id(task)} needs a body: gymnasium.make({env_id(task)!r}, body='44444/44444/...')")
     return body
 
@@ -71,7 +71,7 @@ class VoxelEnv(gymnasium.Env):
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 1.0 / (30 * 0.0001)}
 
-    def __init__(self, body: Any = None, task: str = "Walker-v0", render_mode: str | None = None):
+    def __init__(self, body: Any = NO_BODY, task: str = "Walker-v0", render_mode: str | None = None):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode {render_mode!r} is not supported; use 'rgb_array' or None")
         self.render_mode = render_mode
@@ -117,7 +117,7 @@ class VoxelVectorEnv(VectorEnv):
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP}
 
-    def __init__(self, num_envs: int = 1, body: Any = None, task: str = "Walker-v0",
+    def __init__(self, num_envs: int = 1, body: Any = NO_BODY, task: str = "Walker-v0",
                  max_episode_steps: int | None = None, threads: int | None = None, **kwargs: Any):
         if kwargs.get("render_mode") is not None:
             raise ValueError(f"the vector environments do not render; use gymnasium.make({env_id(task)!r}, "

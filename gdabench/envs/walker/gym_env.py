@@ -19,8 +19,9 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
-from ...body import Body, as_body
-from ...errors import GdabenchError, MalformedBodyError
+from ...body import Body
+from ...errors import MalformedBodyError
+from ..tasks.base import NO_BODY
 from .render import Renderer
 from .sim import Terrain, VoxelSim, WalkerPhysics
 
@@ -33,16 +34,12 @@ GOAL_BONUS, UNSTABLE_PENALTY = 1.0, -3.0
 
 
 def checked_body(body: Any) -> Body:
-    """The body as a :class:`Body`, or a one-line ``ValueError`` saying why it cannot walk."""
-    try:
-        parsed = as_body(body)
-    except GdabenchError:
-        raise
-    except Exception as exc:  # noqa: BLE001 - anything as_body chokes on is a malformed body
-        raise MalformedBodyError(f"malformed body for the walker: {exc}") from None
-    reason = parsed.invalid_reason()
-    if reason is not None:
-        raise MalformedBodyError(f"invalid body for the walker ({parsed.text}): {reason}")
+    """The body as a :class:`Body`, or a one-line ``ValueError`` saying why it cannot walk (Evolution Gym's
+    rules, and the pymunk walker's terrain is 100 voxels long)."""
+    from ..tasks.base import checked_body as checked_for
+    from ..tasks.walking import WalkerV0
+
+    parsed = checked_for(body, WalkerV0)
     if START_VOXEL[0] + parsed.shape[1] > TERRAIN_VOXELS:
         raise MalformedBodyError(f"body {parsed.shape[0]}x{parsed.shape[1]} is wider than the walker's terrain")
     return parsed
@@ -53,8 +50,8 @@ class WalkerEnv(gymnasium.Env):
 
     metadata = {"render_modes": ["rgb_array"]}
 
-    def __init__(self, body: Any = None, render_mode: str | None = None, physics: WalkerPhysics | None = None):
-        if body is None:
+    def __init__(self, body: Any = NO_BODY, render_mode: str | None = None, physics: WalkerPhysics | None = None):
+        if body is NO_BODY:
             raise TypeError("gdabench/Walker-v1 needs a body: gymnasium.make('gdabench/Walker-v1', body='44444/...')")
         self.body = checked_body(body)
         if render_mode not in (None, "rgb_array"):
