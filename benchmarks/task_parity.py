@@ -36,6 +36,8 @@ import gdabench
 from gdabench.envs.tasks import CATALOG, task as definition
 
 CHECKPOINTS = (10, 50, 100, 200, 500)
+#: ``--control``: Evolution Gym against itself with every action changed by this much (about 50 ulps of 1.0)
+NUDGE = 1e-14
 #: the first step where the gap of positions or observations exceeds each of these is reported
 THRESHOLDS = {"0": 0.0, "1e-12": 1e-12, "1e-6": 1e-6, "1e-3": 1e-3}
 
@@ -113,6 +115,18 @@ def task_summary(task: str, bodies: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
+class NudgedEvogym(EvogymEnv):
+    """Evolution Gym with every action raised by :data:`NUDGE` (the ``--control``): how fast a difference of the
+    size of a rounding error grows in Evolution Gym itself.  The same set-up seed draws the same set-up."""
+
+    def __init__(self, task: str, body: gdabench.Body, setup_seed: int = 0, setup: dict[str, Any] | None = None):
+        super().__init__(task, body, setup_seed)
+        assert setup is None or setup == self.setup, "the control drew another set-up"
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool]:
+        return super().step(np.asarray(action) + NUDGE)
+
+
 def run_task(task: str, bodies: Sequence[gdabench.Body], steps: int | None = None,
              make_theirs: Any = EvogymEnv, make_ours: Any = VoxelEnv) -> dict[str, Any]:
     """Every body of ``task`` in both simulators (``make_theirs(task, body, 0)`` is Evolution Gym unless a
@@ -125,6 +139,7 @@ def run_task(task: str, bodies: Sequence[gdabench.Body], steps: int | None = Non
         ours = make_ours(task, body, setup=theirs.setup)
         gaps = compare(ours, theirs, gait_actions(gait, len(actuators(body)), limit), names)
         theirs.close()
+        ours.close()
         out.append(body_summary(body.text, gaps, limit))
     return task_summary(task, out)
 
@@ -135,8 +150,23 @@ def parity_bodies(task: str, n_sampled: int, seed: int) -> list[gdabench.Body]:
     return fixed + task_bodies(task, n_sampled, seed)
 
 
-def fmt(step: int | None, steps: int) -> str:
+def fmt(step: int | None, steps: str) -> str:
     return f"none in {steps}" if step is None else str(step)
+
+
+def trace(task: str, body: gdabench.Body, steps: int | None, make_ours: Any = VoxelEnv) -> None:
+    """Print how the gap of one body grows, step by step, from its first step over 1e-12 to its first over 1e-3."""
+    limit = min(steps or CATALOG[task].max_episode_steps, CATALOG[task].max_episode_steps)
+    theirs = EvogymEnv(task, body, 0)
+    gaps = compare(make_ours(task, body, setup=theirs.setup), theirs,
+                   gait_actions(gait, len(actuators(body)), limit), ["robot", *definition(task).objects()])
+    both = np.maximum(gaps["pos"], gaps["obs"])
+    start = first_over(both, gaps["start"], 1e-12) or 1
+    end = first_over(both, gaps["start"], 1e-3) or len(both)
+    print(f"{task} {body.text}: {len(both)} steps, ended {gaps['end']}; gaps from step {start}")
+    print("step  positions  observations  reward")
+    for t in range(max(start, 1), min(end + 5, len(both)) + 1):
+        print(f"{t:4d}  {gaps['pos'][t - 1]:9.1e}  {gaps['obs'][t - 1]:12.1e}  {gaps['reward'][t - 1]:6.1e}")
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -147,6 +177,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--steps", type=int, default=None, help="at most this many steps (default: the task's limit)")
     parser.add_argument("--rows", type=Path, help="JSON lines of finished tasks: read back and skipped on a restart")
     parser.add_argument("--out", type=Path, help="write every task's figures here (JSON)")
+    parser.add_argument("--control", action="store_true",
+                        help=f"compare Evolution Gym with itself, its actions changed by {NUDGE:g}, instead")
+    parser.add_argument("--trace", metavar="BODY", help="print one body's gaps step by step (with one --tasks id)")
     args = parser.parse_args(argv)
     tasks = [t for t in args.tasks.split(",") if t] or list(CATALOG)
     unknown = [t for t in tasks if t not in CATALOG]
@@ -158,8 +191,13 @@ def main(argv: list[str] | None = None) -> None:
               file=sys.stderr)
         raise SystemExit(2)
     numba.set_num_threads(1)
+    if args.trace:
+        trace(tasks[0], gdabench.Body.from_text(args.trace), args.steps, NudgedEvogym if args.control else VoxelEnv)
+        return
     rows = Rows(args.rows)
-    settings = {"bodies": args.bodies, "seed": args.seed, "steps": args.steps}
+    settings: dict[str, Any] = {"bodies": args.bodies, "seed": args.seed, "steps": args.steps}
+    if args.control:
+        settings["control"] = NUDGE
     print("| task | grade | steps | parity steps (<= 1e-6) | first > 0 | first > 1e-3 | gap pos @100 | gap pos @limit "
           "| ends agree |")
     print("|---|---|--:|--:|--:|--:|--:|--:|---|")
@@ -168,14 +206,16 @@ def main(argv: list[str] | None = None) -> None:
         row = rows.find(kind="parity", task=task, settings=settings)
         if row is None:
             start = time.perf_counter()
-            result = run_task(task, parity_bodies(task, args.bodies, args.seed), args.steps)
+            result = run_task(task, parity_bodies(task, args.bodies, args.seed), args.steps,
+                              make_ours=NudgedEvogym if args.control else VoxelEnv)
             row = {"kind": "parity", "task": task, "settings": settings, "seconds": time.perf_counter() - start,
                    "result": result}
             rows.add(row)
         r = row["result"]
         gaps = r["gap_up_to"]["pos"]
-        steps = min(b["steps"] for b in r["per_body"])
-        within = f"{r['parity_steps']}{' (all)' if r['parity_all_steps'] else ''}"
+        lengths = sorted({b["steps"] for b in r["per_body"]})
+        steps = f"{lengths[0]}" + (f"-{lengths[-1]}" if len(lengths) > 1 else "")
+        within = "all" if r["parity_all_steps"] else r["parity_steps"]
         print(f"| {task} | {r['difficulty']} | {steps} | {within} | {fmt(r['first_over']['0'], steps)} "
               f"| {fmt(r['first_over']['1e-3'], steps)} | {gaps.get('100', float('nan')):.1e} "
               f"| {max(gaps.values()):.1e} | {'yes' if r['ends_agree'] else 'NO'} |", flush=True)
