@@ -127,6 +127,22 @@ class EvogymEnv:
         self.env.close()
 
 
+#: the controls: Evolution Gym against itself with every action changed by this much (about 50 ulps of 1.0)
+NUDGE = 1e-14
+
+
+class NudgedEvogym(EvogymEnv):
+    """Evolution Gym with every action raised by :data:`NUDGE`: how fast a difference of the size of a rounding
+    error grows in Evolution Gym itself.  The same set-up seed draws the same set-up."""
+
+    def __init__(self, task: str, body: gdabench.Body, setup_seed: int = 0, setup: dict[str, Any] | None = None):
+        super().__init__(task, body, setup_seed)
+        assert setup is None or setup == self.setup, "the control drew another set-up"
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool]:
+        return super().step(np.asarray(action) + NUDGE)
+
+
 def setup_drawn(batch: TaskBatch, i: int) -> dict[str, Any]:
     """The random set-up environment ``i`` of ``batch`` drew, as reset options (empty for a fixed set-up)."""
     task = batch.task

@@ -12,7 +12,8 @@ imposed on the voxel engine.
 Per task and part: Spearman and Pearson correlation of the episode returns, sign agreement, the median RMS
 gap of the robot's centre-of-mass x trajectories (voxels), and the unstable episodes of each simulator and
 those unstable in one only.  The goal on the held-out part: Spearman >= 0.95, sign agreement >= 95%, no
-episode unstable in one simulator only.
+episode unstable in one simulator only.  ``--control`` sets Evolution Gym against itself instead, every action
+changed by 1e-14 (about a rounding error): how well any simulator that is not bit-identical can agree.
 
 Evolution Gym's episodes are written to ``--rows`` (JSON lines) as each finishes, the voxel engine's per task
 (one batch of all its episodes); a restart reads them back and plays only what is missing.  Run it in the
@@ -34,7 +35,18 @@ from typing import Any, Callable, Sequence
 
 import numba
 import numpy as np
-from evogym_twin import Episode, EvogymEnv, Rows, actuators, evogym_installed, play, play_batch, rounded
+from evogym_twin import (
+    NUDGE,
+    Episode,
+    EvogymEnv,
+    NudgedEvogym,
+    Rows,
+    actuators,
+    evogym_installed,
+    play,
+    play_batch,
+    rounded,
+)
 from task_speed import task_bodies
 from walker_fidelity import GAITS, actions_for, table
 
@@ -82,6 +94,19 @@ def play_ours(task: str, todo: list[dict[str, Any]], theirs: list[Episode], step
     return play_batch(task, bodies, [episode_actions(c, steps) for c in todo], [t["setup"] for t in theirs])
 
 
+def play_control(task: str, todo: list[dict[str, Any]], theirs: list[Episode], steps: int) -> list[Episode]:
+    """``--control``: Evolution Gym with its actions nudged (:class:`evogym_twin.NudgedEvogym`) in the voxel
+    engine's place, episode by episode: how well Evolution Gym agrees with itself."""
+    out = []
+    for case in todo:
+        env = NudgedEvogym(task, gdabench.Body.from_text(case["body"]), case["setup_seed"])
+        try:
+            out.append(play(env, episode_actions(case, steps)))
+        finally:
+            env.close()
+    return out
+
+
 def part_tables(rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
     """walker_fidelity's figures per part, with whether the held-out goal is met."""
     out = {}
@@ -99,7 +124,9 @@ def part_tables(rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
 
 
 def run_task(task: str, todo: list[dict[str, Any]], steps: int, rows: Rows,
-             theirs_player: Callable[[str, dict[str, Any], int], Episode] = play_theirs) -> dict[str, Any]:
+             theirs_player: Callable[[str, dict[str, Any], int], Episode] = play_theirs,
+             ours_player: Callable[[str, list[dict[str, Any]], list[Episode], int], list[Episode]] = play_ours,
+             ) -> dict[str, Any]:
     """Every episode of ``task`` in both simulators (Evolution Gym's read back from ``rows`` where there)."""
     theirs = []
     for case in todo:
@@ -111,7 +138,7 @@ def run_task(task: str, todo: list[dict[str, Any]], steps: int, rows: Rows,
         theirs.append(row["result"])
     start = time.perf_counter()
     try:
-        ours = play_ours(task, todo, theirs, steps)
+        ours = ours_player(task, todo, theirs, steps)
     except Exception as exc:  # noqa: BLE001 - reported in the task's row; task_stability finds the body
         return {"task": task, "difficulty": CATALOG[task].difficulty, "steps": steps, "parts": {},
                 "error": f"{type(exc).__name__}: {exc}", "episodes": []}
@@ -147,6 +174,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--gaits", default=DEFAULT_GAITS, help="comma-separated names from: " + ", ".join(GAITS))
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--steps", type=int, default=None, help="at most this many steps (default: the task's limit)")
+    parser.add_argument("--part", choices=("all", *PARTS), default="all", help="play only this part's bodies")
+    parser.add_argument("--control", action="store_true",
+                        help=f"compare Evolution Gym with itself, its actions changed by {NUDGE:g}, instead")
     parser.add_argument("--rows", type=Path, help="JSON lines of finished episodes and tasks, reused on a restart")
     parser.add_argument("--out", type=Path,
                         help="write the per-task tables here (JSON) and the episodes beside it (CSV)")
@@ -164,7 +194,9 @@ def main(argv: list[str] | None = None) -> None:
         raise SystemExit(2)
     numba.set_num_threads(1)
     rows = Rows(args.rows)
-    settings = {"bodies": args.bodies, "gaits": gaits, "seed": args.seed, "steps": args.steps}
+    settings: dict[str, Any] = {"bodies": args.bodies, "gaits": gaits, "seed": args.seed, "steps": args.steps}
+    settings |= {"part": args.part} if args.part != "all" else {}
+    settings |= {"control": NUDGE} if args.control else {}
     print(f"voxel engine against Evolution Gym 2.0; {args.bodies} bodies per task, gaits {', '.join(gaits)}, "
           f"seed {args.seed}")
     print("| task | grade | part | episodes | Spearman | sign agreement | unstable ours / Evolution Gym (one only) "
@@ -175,8 +207,9 @@ def main(argv: list[str] | None = None) -> None:
         steps = min(args.steps or CATALOG[task].max_episode_steps, CATALOG[task].max_episode_steps)
         row = rows.find(kind="fidelity", task=task, settings=settings)
         if row is None:
+            todo = [c for c in cases(task, args.bodies, args.seed, gaits) if args.part in ("all", c["part"])]
             row = {"kind": "fidelity", "task": task, "settings": settings,
-                   "result": run_task(task, cases(task, args.bodies, args.seed, gaits), steps, rows)}
+                   "result": run_task(task, todo, steps, rows, ours_player=play_control if args.control else play_ours)}
             rows.add(row)
         r = row["result"]
         results.append(r)

@@ -29,15 +29,24 @@ from typing import Any, Sequence
 import numba
 import numpy as np
 from evogym_record import TASK_BODIES, gait
-from evogym_twin import EvogymEnv, Rows, Twin, VoxelEnv, actuators, evogym_installed, gait_actions, rounded
+from evogym_twin import (
+    NUDGE,
+    EvogymEnv,
+    NudgedEvogym,
+    Rows,
+    Twin,
+    VoxelEnv,
+    actuators,
+    evogym_installed,
+    gait_actions,
+    rounded,
+)
 from task_speed import task_bodies
 
 import gdabench
 from gdabench.envs.tasks import CATALOG, task as definition
 
 CHECKPOINTS = (10, 50, 100, 200, 500)
-#: ``--control``: Evolution Gym against itself with every action changed by this much (about 50 ulps of 1.0)
-NUDGE = 1e-14
 #: the first step where the gap of positions or observations exceeds each of these is reported
 THRESHOLDS = {"0": 0.0, "1e-12": 1e-12, "1e-6": 1e-6, "1e-3": 1e-3}
 
@@ -113,18 +122,6 @@ def task_summary(task: str, bodies: list[dict[str, Any]]) -> dict[str, Any]:
         "ends_agree": all(b["ends_agree"] for b in bodies),
         "per_body": bodies,
     }
-
-
-class NudgedEvogym(EvogymEnv):
-    """Evolution Gym with every action raised by :data:`NUDGE` (the ``--control``): how fast a difference of the
-    size of a rounding error grows in Evolution Gym itself.  The same set-up seed draws the same set-up."""
-
-    def __init__(self, task: str, body: gdabench.Body, setup_seed: int = 0, setup: dict[str, Any] | None = None):
-        super().__init__(task, body, setup_seed)
-        assert setup is None or setup == self.setup, "the control drew another set-up"
-
-    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool]:
-        return super().step(np.asarray(action) + NUDGE)
 
 
 def run_task(task: str, bodies: Sequence[gdabench.Body], steps: int | None = None,
