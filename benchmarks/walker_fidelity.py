@@ -17,7 +17,7 @@ horizontal ones) and one episode of random actions seeded by the body, on both s
 Per part it prints, over all (body, gait) episodes: Spearman and Pearson correlation of the
 episode returns, sign agreement, the share of positive returns in each simulator, the median RMS
 gap between the two centre-of-mass x trajectories (in voxels), and the unstable episodes of each
-simulator (and those unstable in ours only).  The last lines give both simulators' env steps per
+simulator (and those unstable in one only).  The last lines give both simulators' env steps per
 second, timed side by side in this run (episodes interleaved), and their ratio.
 
     python benchmarks/walker_fidelity.py                           # the full benchmark
@@ -217,6 +217,7 @@ def table(rows: list[dict[str, Any]]) -> dict[str, float]:
         "unstable_ours": float(u_ours.mean()),
         "unstable_evogym": float(u_theirs.mean()),
         "unstable_ours_only": float((u_ours & ~u_theirs).mean()),
+        "unstable_evogym_only": float((u_theirs & ~u_ours).mean()),
     }
 
 
@@ -227,7 +228,7 @@ def print_table(name: str, t: dict[str, float], per_gait: dict[str, float]) -> N
     print(f"  centre-of-mass x trajectory gap (RMS, median over episodes): {t['trajectory_gap_voxels']:.2f} voxels")
     print(
         f"  unstable episodes: ours {100 * t['unstable_ours']:.1f}%, Evolution Gym {100 * t['unstable_evogym']:.1f}%,"
-        f" ours only {100 * t['unstable_ours_only']:.1f}%"
+        f" ours only {100 * t['unstable_ours_only']:.1f}%, Evolution Gym only {100 * t['unstable_evogym_only']:.1f}%"
     )
     print("  Spearman per gait: " + ", ".join(f"{g} {v:.2f}" for g, v in per_gait.items()))
 

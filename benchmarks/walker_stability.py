@@ -35,6 +35,23 @@ from gdabench.envs.walker.sim import WalkerPhysics
 
 #: per-step centre-of-mass motion no stable simulation produces (100 m/s, max_speed, for 0.003 s)
 IMPLAUSIBLE_STEP = 0.3
+#: what Evolution Gym adds to the reward of an unstable step
+UNSTABLE_PENALTY = -3.0
+
+
+def step_problems(obs: np.ndarray, reward: np.ndarray, terminated: np.ndarray, unstable: np.ndarray,
+                  still_reward: np.ndarray, moved: np.ndarray, bound: float) -> dict[str, np.ndarray]:
+    """What went wrong undetected in one step of N environments (each a bool array): a NaN in the
+    observation or reward, an observation outside [-bound, bound], an unstable step not ended with the
+    task's reward for standing still plus the penalty of -3 (to 1e-9: a goal bonus may be added before or
+    after it), a stable step moving the centre of mass
+    ``moved`` metres, implausibly far."""
+    return {
+        "nan": ~(np.isfinite(obs).all(axis=1) & np.isfinite(reward)),
+        "outside": ~(np.abs(obs) <= bound).all(axis=1),
+        "bad_penalty": unstable & ((np.abs(reward - (still_reward + UNSTABLE_PENALTY)) > 1e-9) | ~terminated),
+        "implausible": ~unstable & (moved > IMPLAUSIBLE_STEP),
+    }
 
 
 def make(body: gdabench.Body, engine: str, physics: WalkerPhysics, steps: int) -> tuple[gymnasium.Env, np.ndarray]:
@@ -70,15 +87,14 @@ def episode(body: gdabench.Body, engine: str, physics: WalkerPhysics, rng: np.ra
         if engine == "evogym" and terminated and reward < -1.0:
             info = {"unstable": "self-intersection"}
         out["steps"] += 1
-        if not (np.isfinite(obs).all() and np.isfinite(reward)):
-            out["nan"] = True
-        if not space.contains(obs):
-            out["outside"] = True
-        if "unstable" in info:
+        unstable = "unstable" in info
+        if unstable:
             out["unstable"] = info["unstable"]
-            out["bad_penalty"] = reward != -3.0 or not terminated
-        elif abs(reward) > IMPLAUSIBLE_STEP + 1.0:  # the goal bonus is +1
-            out["implausible"] = True
+        # the walker's reward is the centre of mass's x motion, plus a goal bonus of 1; a still step earns 0
+        found = step_problems(np.asarray(obs, dtype=np.float64)[None], np.array([reward]), np.array([terminated]),
+                              np.array([unstable]), np.zeros(1), np.array([abs(reward) - 1.0]), space.high.max())
+        for key, flags in found.items():
+            out[key] |= bool(flags[0])
         if terminated or truncated:
             return out
 
