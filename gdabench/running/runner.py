@@ -35,6 +35,7 @@ from .events import Listeners, PluginHooks, RunListener
 from .hosts import BodiesDone, InProcess, LocalProcesses, TrialHost, TrialWorkers
 from .outcomes import RunOutcomes
 from .plan import Plan
+from .reevaluation import load as load_reevaluations, reevaluate_run
 from .trial import GenerationResult
 from .trial_spec import TrialSpec
 
@@ -132,8 +133,16 @@ def compare(
                     ]
                 )
                 raise TrialError(_failure_line(plan, failures))
+            how = plan.experiment.reevaluate
+            if how is not None:
+                reevaluated = time.monotonic()
+                reevaluate_run(run, plan, how, execution, listener.reevaluated)
+                done = float((run.meta.get("reevaluated") or {}).get("wall_seconds", 0.0))
+                run.update_meta(reevaluated={"top": how.top, "seeds": how.seeds,
+                                             "wall_seconds": round(done + time.monotonic() - reevaluated, 1)})
             frame = run.load_evaluations()
-            summary = summarize(frame, {e.label: e.optimum for e in plan.envs})
+            optima = {e.label: e.optimum for e in plan.envs}
+            summary = summarize(frame, optima, reevaluations=load_reevaluations(run.path))
             summary.to_csv(run.path / SUMMARY, index=False)
             measured_nothing = nothing_measured(failure_counts(frame))  # every trial ran, but some measured nothing
             status = "complete" if measured_nothing is None else "failed"
