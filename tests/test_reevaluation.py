@@ -139,3 +139,17 @@ def test_trial_score_by_hand_the_best_mean_not_the_raw_best():
     assert (row["raw_best"], row["raw_body"]) == (9.0, "b")
     assert (row["reevaluated_best"], row["reevaluated_body"], row["reevaluated_sd"]) == (6.0, "a", 1.0)
     assert row["drop"] == 3.0 and row["bodies"] == 2 and row["replicates"] == 3
+
+
+def test_a_run_scored_by_other_dynamics_is_not_reevaluated(tmp_path):
+    out = tmp_path / "run"
+    made = CliRunner().invoke(app, ["compare", "-d", "random", "--env", "simple", "--budget", "25", "--out", str(out),
+                                    "-q", "--no-report"])  # fmt: skip
+    assert made.exit_code == 0, made.output
+    from gdabench.results import RunDirectory
+
+    run = RunDirectory.open(out)
+    run.update_meta(envs={"simple": {"optimum": 100.0, "version": "gdabench/simple-v0"}})
+    with pytest.raises(ConfigError, match="re-evaluating it would mix"):
+        reevaluate_directory(out, Reevaluation(1, 1))
+    assert load(out).empty

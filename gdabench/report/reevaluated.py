@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 
 from ..statuses import OK
+from .runtimes import with_run_id
 
 TRIAL = ["env", "designer", "run_id", "seed"]
 BODY_COLUMNS = [*TRIAL, "rank", "body", "body_hash", "first_reward", "replicates", "mean", "sd", "min", "max"]
@@ -29,14 +30,10 @@ TRIAL_COLUMNS = [*TRIAL, "raw_best", "raw_body", "reevaluated_best", "reevaluate
                  "replicates", "bodies", "drop"]  # fmt: skip
 
 
-def _with_run_id(frame: pd.DataFrame) -> pd.DataFrame:
-    return frame.assign(run_id=frame["run_id"].astype(str) if "run_id" in frame.columns else "")
-
-
 def body_noise(reevaluations: pd.DataFrame) -> pd.DataFrame:
     """One row per re-evaluated body of every trial: the reward that selected it and its rewards over the
     further seeds (count, mean, SD, min, max)."""
-    ok = _with_run_id(reevaluations[reevaluations["status"] == OK])
+    ok = with_run_id(reevaluations[reevaluations["status"] == OK])
     if ok.empty:
         return pd.DataFrame(columns=BODY_COLUMNS)
     keys = [*TRIAL, "rank", "body", "body_hash", "first_reward"]
@@ -48,7 +45,7 @@ def trial_scores(frame: pd.DataFrame, reevaluations: pd.DataFrame) -> pd.DataFra
     """One row per trial with re-evaluations: raw best (and its body), re-evaluated best (the best mean over
     further seeds, its body and that body's SD), replicates behind it, bodies re-evaluated, and the drop."""
     bodies = body_noise(reevaluations)
-    ok = _with_run_id(frame[frame["status"] == OK])
+    ok = with_run_id(frame[frame["status"] == OK])
     rows = []
     for key, mine in bodies.groupby(TRIAL, sort=False):
         trial = ok[(ok[TRIAL] == pd.Series(key, index=TRIAL)).all(axis=1)]

@@ -147,6 +147,7 @@ def reevaluate_directory(
         raise ConfigError(f"{run.path} was re-evaluated {recorded.get('top')}x{recorded.get('seeds')}; "
                           f"re-evaluating it {how.text} would mix two settings in one table")  # fmt: skip
     plan = Plan.resolve(experiment, reg or registry(), designers=False)
+    plan.check_versions(run.path, run.meta, "re-evaluating it")
     run.lock()
     try:
         start = time.monotonic()

@@ -59,18 +59,6 @@ def _new_meta(plan: Plan, reg: Registry, command: Sequence[str] | None, executio
     }
 
 
-def _check_versions(run: RunDirectory, meta: dict[str, Any], plan: Plan) -> None:
-    """A resume may not mix dynamics: every environment must still build the version the run recorded."""
-    recorded = meta.get("envs") or {}
-    for env in plan.envs:
-        was = (recorded.get(env.label) or {}).get("version")
-        if was is not None and was != env.version:
-            raise ConfigError(
-                f"{run.path}: its rows were scored by {was}, but '{env.label}' now builds {env.version}; "
-                "resuming would mix the two in one table (start a new run)"
-            )
-
-
 def compare(
     experiment: Experiment | None,
     out: str | Path | None = None,
@@ -108,7 +96,7 @@ def compare(
         if execution.timeout is None and (meta.get("execution") or {}).get("timeout"):
             execution = Execution(**{**execution.to_json(), "timeout": meta["execution"]["timeout"]})
         plan = Plan.resolve(experiment, reg)
-        _check_versions(run, meta, plan)
+        plan.check_versions(run.path, meta, "resuming")
         run.lock()
         added = {"added_seeds": list(experiment.seeds[len(stored.seeds):])} if experiment != stored else {}
         run.update_meta(status="running", config=experiment.to_json(), error=None,
