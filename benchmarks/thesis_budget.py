@@ -43,7 +43,7 @@ import pandas as pd
 
 BODIES = Path(__file__).resolve().parents[1] / "docs/benchmarks/output/thesis-walker-bodies.csv"
 FIELDS = ["budget", "seed", "body", "author", "author_designer", "reward", "distance", "best_at", "unstable",
-          "seconds", "batch", "finished"]  # fmt: skip
+          "seconds", "cpu_seconds", "batch", "finished"]  # fmt: skip
 #: a score within this of the distance to the goal crosses the course (the dropped final step moves less)
 CROSSING_MARGIN = 0.1
 
@@ -83,8 +83,8 @@ def done_keys(path: Path) -> set[tuple[int, int, str]]:
     return {(int(b), int(s), str(x)) for b, s, x in zip(frame["budget"], frame["seed"], frame["body"])}
 
 
-def train_chunk(bodies: list[str], budget: int, seed: int) -> tuple[list, float]:
-    """Train ``bodies`` as a run with ``seed`` trains them (one lockstep batch); outcomes and wall seconds."""
+def train_chunk(bodies: list[str], budget: int, seed: int) -> tuple[list, float, float]:
+    """Train ``bodies`` as a run with ``seed`` trains them (one lockstep batch); outcomes, wall and CPU seconds."""
     from gdabench import seeding
     from gdabench.body import Body
     from gdabench.execution.evaluation import evaluate_batch
@@ -98,9 +98,9 @@ def train_chunk(bodies: list[str], budget: int, seed: int) -> tuple[list, float]
     plan = Plan.resolve(experiment, registry(), designers=False)
     parsed = [Body.from_text(b) for b in bodies]
     tasks = [EvalTask(b, seeding.evaluation_seed(seed, b.hash), plan.envs[0].factory, plan.controller) for b in parsed]
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     outcomes = evaluate_batch(tasks)
-    return outcomes, time.perf_counter() - start
+    return outcomes, time.perf_counter() - start, time.process_time() - cpu
 
 
 def train(args: argparse.Namespace) -> None:
@@ -116,7 +116,7 @@ def train(args: argparse.Namespace) -> None:
         todo = [r for r in sample.itertuples() if (budget, seed, r.body) not in done]
         for start in range(0, len(todo), chunk_size):
             chunk = todo[start : start + chunk_size]
-            outcomes, seconds = train_chunk([r.body for r in chunk], budget, seed)
+            outcomes, seconds, cpu = train_chunk([r.body for r in chunk], budget, seed)
             new = not out.exists()
             with out.open("a", newline="") as f:
                 writer = csv.DictWriter(f, fieldnames=FIELDS)
@@ -128,13 +128,14 @@ def train(args: argparse.Namespace) -> None:
                         "author_designer": r.designer, "reward": o.reward,
                         "distance": round(crossing_distance(r.body), 4),
                         "best_at": o.info.get("ppo_best_at", ""), "unstable": o.info.get("ppo_unstable_episodes", ""),
-                        "seconds": round(seconds / len(chunk), 2), "batch": len(chunk),
+                        "seconds": round(seconds / len(chunk), 2), "cpu_seconds": round(cpu / len(chunk), 2),
+                        "batch": len(chunk),
                         "finished": time.strftime("%Y-%m-%dT%H:%M:%S"),
                     })  # fmt: skip
                 f.flush()
                 os.fsync(f.fileno())
             print(f"{time.strftime('%H:%M:%S')} budget {budget:,} seed {seed}: {start + len(chunk)}/{len(todo)} "
-                  f"bodies, {seconds:,.0f} s for {len(chunk)}", flush=True)  # fmt: skip
+                  f"bodies, {seconds:,.0f} s ({cpu:,.0f} s CPU) for {len(chunk)}", flush=True)  # fmt: skip
 
 
 def top(values: pd.Series, k: int = 5) -> set:
@@ -145,14 +146,15 @@ def table(rows: pd.DataFrame) -> pd.DataFrame:
     """One row per budget and training seed (and the mean over seeds): agreement with the author's rewards."""
     from scipy.stats import spearmanr
 
+    cpu = rows["cpu_seconds"] if "cpu_seconds" in rows.columns else pd.Series(np.nan, index=rows.index)
     rows = rows.assign(crossed=rows["reward"] >= rows["distance"] - CROSSING_MARGIN,
-                       author_crossed=rows["author"] >= rows["distance"] - CROSSING_MARGIN)  # fmt: skip
+                       author_crossed=rows["author"] >= rows["distance"] - CROSSING_MARGIN, cpu=cpu)  # fmt: skip
     full = rows[rows["budget"] == rows["budget"].max()].groupby("body")["reward"].mean()
     out = []
     groups = [(b, str(s), g) for (b, s), g in rows.groupby(["budget", "seed"])]
     groups += [(b, "mean", g.groupby("body").agg(reward=("reward", "mean"), author=("author", "first"),
                                                 crossed=("crossed", "mean"), author_crossed=("author_crossed", "first"),
-                                                seconds=("seconds", "sum")).reset_index())
+                                                seconds=("seconds", "sum"), cpu=("cpu", "sum")).reset_index())
                for b, g in rows.groupby("budget") if g["seed"].nunique() > 1]  # fmt: skip
     for budget, seed, g in sorted(groups, key=lambda x: (x[0], x[1] == "mean", x[1])):
         g = g.set_index("body")
@@ -169,20 +171,22 @@ def table(rows: pd.DataFrame) -> pd.DataFrame:
             "mean_diff": float((g["reward"] - g["author"]).mean()),
             "median_here": float(g["reward"].median()), "median_author": float(g["author"].median()),
             "hours": float(g["seconds"].sum()) / 3600,
+            "cpu_hours": float(g["cpu"].sum(min_count=len(g))) / 3600,
         })  # fmt: skip
     return pd.DataFrame(out)
 
 
 def markdown(frame: pd.DataFrame) -> str:
     head = ("| timesteps | training seed | bodies | Spearman vs author | Spearman vs 1e6 here | author's top 5 kept "
-            "| cross here / author / both | mean difference | median here / author | CPU hours |")
+            "| cross here / author / both | mean difference | median here / author | hours: wall (CPU) |")
     lines = [head, "|" + "---|" * 10]
     for r in frame.itertuples():
         s1e6 = "" if np.isnan(r.spearman_1e6) else f"{r.spearman_1e6:.2f}"
         lines.append(f"| {r.timesteps:,} | {r.seed} | {r.bodies} | {r.spearman_author:.2f} | {s1e6} "
                      f"| {r.top5_shared}/5 "
                      f"| {r.cross_here} / {r.cross_author} / {r.cross_both} | {r.mean_diff:+.2f} "
-                     f"| {r.median_here:.2f} / {r.median_author:.2f} | {r.hours:.2f} |")  # fmt: skip
+                     f"| {r.median_here:.2f} / {r.median_author:.2f} | {r.hours:.2f} "
+                     + ("|" if np.isnan(r.cpu_hours) else f"({r.cpu_hours:.2f}) |"))  # fmt: skip
     return "\n".join(lines)
 
 
