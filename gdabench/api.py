@@ -13,6 +13,7 @@ pandas DataFrames::
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
@@ -101,7 +102,7 @@ def compare(
     terminal or a notebook); ``listener`` receives the run's events.  ``reevaluate`` is ``"3x5"``
     (each trial's 3 best bodies under 5 further seeds), ``"off"``, or None for the default (on with a
     controller); ``primary`` names the comparison tested alone (``"gda,ga"`` or a table as in an
-    experiment file).
+    experiment file).  Warns (``UserWarning``) before the run when its seeds cannot reach significance.
     """
     extra = {k: v for k, v in (("reevaluate", reevaluate), ("primary", primary)) if v is not None}
     setup = build_run(
@@ -110,6 +111,10 @@ def compare(
          **(execution.to_json() if execution is not None else {})},
         reg=reg,
     )  # fmt: skip
+    from .report.power import significance_warnings
+
+    for line in significance_warnings(setup.experiment):  # what the seeds cannot show, before the run
+        warnings.warn(line, UserWarning, stacklevel=2)
     if progress and listener is None:
         from .running.progress import ProgressDisplay
 

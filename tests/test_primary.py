@@ -91,6 +91,10 @@ def test_warnings_before_a_run_that_cannot_conclude():
 
 
 def test_compare_warns_before_the_run(tmp_path):
+    import gdabench
+
+    with pytest.warns(UserWarning, match="no pair of designers can differ significantly with 3 seeds"):
+        gdabench.compare("ga,random", "simple", seeds="0..2", budget=25, out=tmp_path / "api", progress=False)
     result = CliRunner().invoke(app, ["compare", "-d", "ga,random", "--env", "simple", "--budget", "25", "--seeds", "0..4",
                                       "--out", str(tmp_path / "run"), "-q", "--no-report"])  # fmt: skip
     assert result.exit_code == 0, result.output

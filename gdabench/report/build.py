@@ -524,7 +524,8 @@ def write_report(
     primary = _primary(primary, experiment, designers, envs, reevaluations, meta, notes)
     stat = statistics_sections(
         frame, optima={env: t for env, t in target.items() if t is not None} or None, confidence=confidence,
-        primary=primary, reevaluations=reevaluations if len(reevaluations) else None,
+        primary=primary, named_before=experiment is not None and experiment.primary == primary,
+        reevaluations=reevaluations if len(reevaluations) else None,
     )  # fmt: skip
     tables.update(stat.tables)
     significance, *statistics = stat.sections

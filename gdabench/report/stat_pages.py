@@ -39,12 +39,14 @@ def statistics_sections(
     confidence: float = CONFIDENCE,
     alpha: float = ALPHA,
     primary: Primary | None = None,
+    named_before: bool = True,
     reevaluations: pd.DataFrame | None = None,
 ) -> StatisticsPages:
     """Sections for the report of ``frame`` (one or several environments).
 
     Tests and aggregates score each run by its re-evaluated best where ``reevaluations`` has rows
-    (:mod:`.reevaluated`), else by its best reward; ``primary`` is the comparison named before the run.
+    (:mod:`.reevaluated`), else by its best reward; ``primary`` is the comparison tested alone, ``named_before``
+    whether the experiment named it before the run (else it was named for the report).
     """
     designers = [str(d) for d in pd.unique(frame["designer"])]
     envs = [str(e) for e in pd.unique(frame["env"])]
@@ -57,7 +59,7 @@ def statistics_sections(
         f"every pair of designers per environment: role (primary or exploratory), test, pairs and non-tied pairs, "
         f"p, Holm-corrected p, A12, verdict ({METRIC_NAMES[metric]})",
     )
-    pages.sections.append(_significance(frame, tests, envs, alpha, primary, metric))
+    pages.sections.append(_significance(frame, tests, envs, alpha, primary, metric, named_before))
 
     ert = fixed_target(frame, optima=optima, confidence=confidence)
     ecdf = runtime_ecdf(frame, optima=optima)
@@ -113,14 +115,20 @@ def _slug(name: str) -> str:
 
 # -- significance ---------------------------------------------------------------------------------
 def _significance(
-    frame: pd.DataFrame, tests: pd.DataFrame, envs: list[str], alpha: float, primary: Primary | None, metric: str
+    frame: pd.DataFrame,
+    tests: pd.DataFrame,
+    envs: list[str],
+    alpha: float,
+    primary: Primary | None,
+    metric: str,
+    named_before: bool,
 ) -> Section:
     seeds = frame.groupby(["env", "designer"])["seed"].nunique()
     exploratory = tests[tests["role"] == "exploratory"]
     comparisons = max(1, int(exploratory.groupby("env").size().max())) if len(exploratory) else 1
     paragraphs, tables = [], []
     if primary is not None:
-        paragraphs.append(_primary_words(primary, tests, seeds))
+        paragraphs.append(_primary_words(primary, tests, seeds, named_before))
     for env in envs:
         mine = tests[tests["env"] == env]
         fewest = int(seeds.loc[env].min())
@@ -135,10 +143,11 @@ def _significance(
             paragraphs.append(_verdict_words(others, where, alpha, fewest, primary is not None))
         tables.append(_pairwise_table(mine, env if len(envs) > 1 else "", alpha, metric))
     tables.append(_power_table(alpha, comparisons))
+    when = "named in the experiment before the run" if named_before else "named for this report, after the run"
     named = (
-        f"The primary comparison, named in the experiment before the run ({primary.a} against {primary.b}), is "
-        f"tested alone at its own level; every other pair is exploratory: their p-values are corrected together for "
-        f"the number of pairs with Holm's method. "
+        f"The primary comparison ({primary.a} against {primary.b}, {when}) is tested alone at its own level; "
+        f"every other pair is exploratory: their p-values are corrected together for the number of pairs with Holm's "
+        f"method. "
         if primary is not None
         else "No primary comparison was named before the run, so every pair is exploratory: p-values are corrected "
         "for the number of pairs with Holm's method. "
@@ -152,7 +161,7 @@ def _significance(
     return Section("Which differences are significant", [], intro, paragraphs=paragraphs, tables=tables)
 
 
-def _primary_words(primary: Primary, tests: pd.DataFrame, seeds: pd.Series) -> str:
+def _primary_words(primary: Primary, tests: pd.DataFrame, seeds: pd.Series, named_before: bool) -> str:
     rows = tests[tests["role"] == "primary"]
     needed = seeds_needed(primary.effect, alpha=primary.alpha, target_power=primary.power)
     plan = (
@@ -163,8 +172,9 @@ def _primary_words(primary: Primary, tests: pd.DataFrame, seeds: pd.Series) -> s
     if rows.empty:
         return plan + ": not tested (one of the two designers has no runs in this table)."
     r = rows.iloc[0]
-    short = f"; this run has {r.pairs or min(r.n_a, r.n_b)}, fewer than planned" if needed and (
-        r.pairs or min(r.n_a, r.n_b)) < needed else ""  # fmt: skip
+    has = r.pairs or min(r.n_a, r.n_b)
+    fewer = "planned" if named_before else "that"
+    short = f"; this run has {has}, fewer than {fewer}" if needed and has < needed else ""
     return f"{plan}{short}. On the {METRIC_NAMES[r.metric]}: {r.verdict}."
 
 
