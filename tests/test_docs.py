@@ -84,9 +84,13 @@ def test_the_walker_reference_page_shows_the_committed_runs_own_figures():
     for (designer, generation), group in rows.groupby(["designer", "generation"]):
         line = next(r for r in table if r.startswith(f"| {designer} | {generation} | {len(group)} | "))
         assert f"| {group['max'].median():.2f} [{group['max'].min():.2f}, {group['max'].max():.2f}] |" in line
-        thesis = hooks.THESIS_WALKER_BEST.get(designer, {}).get(generation)
+        thesis = hooks.thesis_walker_best(ROOT).get(designer, {}).get(generation)
         assert line.endswith(f"| {thesis:.2f} |" if thesis is not None else "|  |")
     assert [r for r in table if r.startswith("| gda | 0 |")][0].endswith("| 6.22 |")  # the thesis's GDA, generation 0
+    # the author's published runs (SPEC.md): GDA 6.22, 7.88, 9.55, 8.90, 8.28; GA 8.89 ... 9.53 by 4; CPPN-NEAT 9.56
+    author = {d: {g: round(v, 2) for g, v in gens.items()} for d, gens in hooks.thesis_walker_best(ROOT).items()}
+    assert [author["gda"][g] for g in range(5)] == [6.22, 7.88, 9.55, 8.90, 8.28]
+    assert (author["ga"][0], author["ga"][4], author["cppn"][0]) == (8.89, 9.53, 9.56)
     assert hooks.reference_summary(ROOT, "walker") in (WALKER_RUN / "report" / "summary.md").read_text()
 
 
