@@ -94,6 +94,56 @@ def test_the_walker_reference_page_shows_the_committed_runs_own_figures():
     assert hooks.reference_summary(ROOT, "walker") in (WALKER_RUN / "report" / "summary.md").read_text()
 
 
+def test_the_thesis_budget_table_is_the_committed_rows_against_the_authors():
+    """The thesis-budget page's table comes from docs/benchmarks/output/thesis-budget.csv: each budget's Spearman
+    with the author's rewards, recomputed here, and the author's rewards are those of the committed bodies CSV."""
+    import pandas as pd
+    from scipy.stats import spearmanr
+
+    hooks = docs_hooks()
+    assert "<!-- gdabench:thesis-budget -->" in (ROOT / "docs" / "benchmarks" / "thesis-budget.md").read_text()
+    rows = pd.read_csv(ROOT / hooks.THESIS_BUDGET)
+    author = pd.read_csv(ROOT / hooks.THESIS_BODIES, comment="#").drop_duplicates("body").set_index("body")["reward"]
+    assert (rows["author"] == rows["body"].map(author)).all() and rows["body"].nunique() >= 24
+    table = hooks.thesis_budget(ROOT).splitlines()
+    for (budget, seed), g in rows.groupby(["budget", "seed"]):
+        line = next(r for r in table if r.startswith(f"| {budget:,} | {seed} | {len(g)} | "))
+        assert line.split(" | ")[3] == f"{spearmanr(g['reward'], g['author']).statistic:.2f}"
+
+
+def test_the_walker_pages_reevaluation_is_the_runs():
+    """Raw against re-evaluated best on the walker page, from the committed re-evaluations (once committed)."""
+    from gdabench.report.reevaluated import trial_scores
+    from gdabench.results import read_parquet
+    from gdabench.running.reevaluation import load
+
+    hooks = docs_hooks()
+    again = load(WALKER_RUN)
+    if again.empty:
+        assert "not committed yet" in hooks.walker_reevaluated(ROOT)
+        return
+    trials = trial_scores(read_parquet(WALKER_RUN / "evaluations.parquet"), again)
+    table = hooks.walker_reevaluated(ROOT).splitlines()
+    for designer, g in trials.groupby("designer"):
+        line = next(r for r in table if r.startswith(f"| {designer} | {len(g)} | "))
+        assert f"| {g['raw_best'].median():.2f} | {g['reevaluated_best'].median():.2f} |" in line
+
+
+def test_the_walker_pages_measures_are_the_runs():
+    """Evaluations to a reward and mean best-so-far on the walker page, from the committed rows."""
+    hooks = docs_hooks()
+    from gdabench.report.summary import per_run
+    from gdabench.results import read_parquet
+
+    rows = read_parquet(WALKER_RUN / "evaluations.parquet")
+    table = hooks.walker_measures(ROOT).splitlines()
+    reached = per_run(rows, 5.0).groupby("designer")["evals_to_threshold"]
+    for designer, to_five in reached:
+        line = next(r for r in table if r.startswith(f"| {designer} | 5 | "))
+        assert f"| {int(to_five.notna().sum())}/5, " in line
+    assert "93.8%" in table[2]  # five seeds: the range, with its own coverage
+
+
 def test_the_walker_page_describes_each_designers_best_bodies_by_their_materials():
     """The thesis's figure 5.2 claims (noise, a block of horizontal actuators, patches) are checked on the
     committed run's best body of every seed: the table's figures are those bodies', counted afresh here."""

@@ -26,7 +26,13 @@ from gdabench.report import plots
 from gdabench.report.bodies import COLOURS, body_image
 from gdabench.report.build import write_report
 from gdabench.report.diversity import categorize, body_matrix, diversity
-from gdabench.report.stats import best_so_far_curve, censored_median, generation_rewards, median_interval
+from gdabench.report.stats import (
+    best_so_far_curve,
+    censored_median,
+    generation_rewards,
+    median_interval,
+    order_statistic_ranks,
+)
 from gdabench.execution import Execution
 from gdabench.running.events import RunListener
 from gdabench.running.runner import compare
@@ -177,7 +183,7 @@ def test_best_so_far_curve_matches_pandas(table, run_dir, report):
             row = curve.loc[(designer, n)]
             assert row["median"] == pytest.approx(np.median(values))
             assert min(values) <= row["ci_low"] <= row["median"] <= row["ci_high"] <= max(values)
-            assert row["runs"] == len(SEEDS)
+            assert row["runs"] == len(SEEDS) and row["ci_level"] == order_statistic_ranks(len(SEEDS))[1]
 
 
 def test_diversity_matches_a_brute_force_count(table, run_dir, report):

@@ -321,9 +321,8 @@ def _best_so_far(
         curves[d], seeds[d] = (x, median, low, high), len(matrix)
         runs = (~np.isnan(matrix)).sum(axis=0)
         parts.append(
-            pd.DataFrame(
-                {"designer": d, "evaluations": x, "median": median, "ci_low": low, "ci_high": high, "runs": runs}
-            )
+            pd.DataFrame({"designer": d, "evaluations": x, "median": median, "ci_low": low, "ci_high": high,
+                          "ci_level": level, "runs": runs})  # fmt: skip
         )
     return curves, seeds, pd.concat(parts, ignore_index=True)
 
