@@ -149,11 +149,21 @@ def reevaluate_directory(
     plan = Plan.resolve(experiment, reg or registry(), designers=False)
     plan.check_versions(run.path, run.meta, "re-evaluating it")
     run.lock()
+    start, before = time.monotonic(), float(recorded.get("wall_seconds", 0.0))
+
+    def record() -> None:  # the setting from the start (a killed re-evaluation resumes with it), the time after
+        seconds = round(before + time.monotonic() - start, 1)
+        run.update_meta(reevaluated={"top": how.top, "seeds": how.seeds, "wall_seconds": seconds})
+
+    def trial_done(title: str, done: int, total: int) -> None:
+        record()
+        if on_trial is not None:
+            on_trial(title, done, total)
+
     try:
-        start = time.monotonic()
-        table = reevaluate_run(run, plan, how, execution or Execution(), on_trial)
-        seconds = float(recorded.get("wall_seconds", 0.0)) + time.monotonic() - start
-        run.update_meta(reevaluated={"top": how.top, "seeds": how.seeds, "wall_seconds": round(seconds, 1)})
+        record()
+        table = reevaluate_run(run, plan, how, execution or Execution(), trial_done)
     finally:
+        record()
         run.unlock()
     return table
