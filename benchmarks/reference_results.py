@@ -2,10 +2,13 @@
 
     python benchmarks/reference_results.py                      # ga,cppn,gda on simple, 1000 evaluations, seeds 0..9
     python benchmarks/reference_results.py --designers ga,random --out /tmp/ref   # any other comparison
-    python benchmarks/reference_results.py --config experiments/walker.toml --out results/reference/walker
+    python benchmarks/reference_results.py --config experiments/walker.toml --out results/reference/walker \
+        --reevaluate 3x5 --primary gda,ga
 
 It runs ``gdabench compare`` (niced, one thread per process: the machine is shared), resumes
-the run if a previous attempt was interrupted, writes the report, prints every file's size and
+the run if a previous attempt was interrupted, re-evaluates a run made without re-evaluation
+(``--reevaluate``: ``gdabench reevaluate``, resumable), writes the report (``--primary`` names a
+primary comparison for a run whose experiment has none), prints every file's size and
 fails if the directory is larger than ``--max-mb`` (committed results must stay small).  The README's
 headline plot and table are ``<out>/report/best_so_far.png`` and the table in
 ``<out>/report/summary.md``.
@@ -59,6 +62,8 @@ def main() -> int:
     parser.add_argument("--workers", default="1")
     parser.add_argument("--out", type=Path, help="default: results/reference/simple in the repository")
     parser.add_argument("--max-mb", type=float, default=5.0, help="fail if what would be committed is larger")
+    parser.add_argument("--reevaluate", help="TOPxSEEDS: re-evaluate the run's trials (gdabench reevaluate)")
+    parser.add_argument("--primary", help="A,B: the report tests A against B alone (gdabench report --primary)")
     args = parser.parse_args()
 
     out: Path = args.out
@@ -72,7 +77,9 @@ def main() -> int:
         _gdabench("compare", *what, "--workers", args.workers, "--out", str(out), "--quiet", "--no-report")
     elif status != "complete":
         _gdabench("compare", "--resume", str(out), "--workers", args.workers, "--quiet", "--no-report")
-    _gdabench("report", str(out))
+    if args.reevaluate:
+        _gdabench("reevaluate", str(out), "--reevaluate", args.reevaluate, "--jobs", args.workers)
+    _gdabench("report", str(out), *(["--primary", args.primary] if args.primary else []))
 
     files = _committed(out)
     total = sum(p.stat().st_size for p in files)

@@ -13,9 +13,10 @@ pandas DataFrames::
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any, Iterable, Mapping, Sequence
 
 import pandas as pd
 
@@ -51,8 +52,15 @@ class Run:
         """One row per (designer, environment, controller): best reward, evaluations to the
         threshold (default: each environment's optimum), wall time, with bootstrap intervals."""
         from .report.summary import summarize, thresholds
+        from .running.reevaluation import load
 
-        return summarize(self.evaluations(), thresholds(self.meta, threshold))
+        return summarize(self.evaluations(), thresholds(self.meta, threshold), reevaluations=load(self.path))
+
+    def reevaluations(self) -> pd.DataFrame:
+        """One row per re-evaluation of a trial's final best bodies (see :mod:`gdabench.running.reevaluation`)."""
+        from .running.reevaluation import load
+
+        return load(self.path)
 
     def report(self, out: str | Path | None = None, **options: Any) -> Path:
         """Write the report (see :func:`gdabench.report.build.write_report`); the path of report.html."""
@@ -79,6 +87,8 @@ def compare(
     population: int = DEFAULTS["population"],
     shape: str | Sequence[int] = DEFAULTS["shape"],
     stop_at_optimum: bool = DEFAULTS["stop_at_optimum"],
+    reevaluate: str | bool | None = None,
+    primary: str | Mapping[str, Any] | None = None,
     out: str | Path | None = None,
     execution: Execution | None = None,
     progress: bool = True,
@@ -89,14 +99,22 @@ def compare(
 
     ``env`` may name several environments (a suite): every designer runs on each.  ``seeds``
     takes ``"0..9"`` or any iterable of integers.  ``progress`` shows a progress display (in a
-    terminal or a notebook); ``listener`` receives the run's events.
+    terminal or a notebook); ``listener`` receives the run's events.  ``reevaluate`` is ``"3x5"``
+    (each trial's 3 best bodies under 5 further seeds), ``"off"``, or None for the default (on with a
+    controller); ``primary`` names the comparison tested alone (``"gda,ga"`` or a table as in an
+    experiment file).  Warns (``UserWarning``) before the run when its seeds cannot reach significance.
     """
+    extra = {k: v for k, v in (("reevaluate", reevaluate), ("primary", primary)) if v is not None}
     setup = build_run(
         {"designers": designers, "env": env, "controller": controller, "seeds": seeds, "budget": budget,
-         "population": population, "shape": shape, "stop_at_optimum": stop_at_optimum, "out": out,
+         "population": population, "shape": shape, "stop_at_optimum": stop_at_optimum, "out": out, **extra,
          **(execution.to_json() if execution is not None else {})},
         reg=reg,
     )  # fmt: skip
+    from .report.power import significance_warnings
+
+    for line in significance_warnings(setup.experiment):  # what the seeds cannot show, before the run
+        warnings.warn(line, UserWarning, stacklevel=2)
     if progress and listener is None:
         from .running.progress import ProgressDisplay
 

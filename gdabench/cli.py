@@ -206,6 +206,7 @@ class RunOptions:
     cache: Optional[Path] = DEFAULTS["cache"]
     resume: Optional[Path] = None
     stop_at_optimum: bool = DEFAULTS["stop_at_optimum"]
+    reevaluate: Optional[str] = None
     log: Optional[list[str]] = None
     quiet: bool = False
     no_report: bool = False
@@ -266,6 +267,11 @@ RUN_OPTIONS: dict[str, Any] = {
              "--seeds may add seeds).",
     ),
     "stop_at_optimum": _option("--stop-at-optimum", help="End each trial once it reaches the environment's optimum."),
+    "reevaluate": _option(
+        "--reevaluate",
+        help="TOPxSEEDS: retrain each trial's TOP best bodies under SEEDS more training seeds and score it by the best "
+             "mean, or off (default: 3x5 with a controller, off without).",
+    ),
     "log": _option(
         "--log", help="Log each generation's figures to a tracker: tensorboard (writes RUN_DIR/tensorboard)."
     ),
@@ -311,6 +317,10 @@ def _execute(designers: str, options: RunOptions) -> None:
     with guard:
         setup = build_run(options.given(designers))
         guard.run_dir = setup.out
+        from .report.power import significance_warnings  # scipy: only once a run is asked for
+
+        for line in significance_warnings(setup.experiment):
+            err_console.print(f"[yellow]warning:[/] {escape(line)}", highlight=False, soft_wrap=True)
         done = RunDirectory.open(setup.out).evaluations_made() if options.resume is not None else {}
         reg = registry()
         for name in dict.fromkeys(options.log or []):
@@ -370,7 +380,9 @@ def _print_table(title: str, headers: list[str], rows: list[list[str]]) -> None:
 
 
 def _print_summary(run: RunDirectory) -> None:
-    summary = summarize(run.load_evaluations(), thresholds(run.meta))
+    from .running.reevaluation import load
+
+    summary = summarize(run.load_evaluations(), thresholds(run.meta), reevaluations=load(run.path))
     _print_table(f"summary ({run.path})", *summary_cells(summary, compact=True))
 
 
@@ -478,12 +490,23 @@ def report(
             "--animations/--no-animations", help="Animate the best bodies, if the environment can render them."
         ),
     ] = True,
+    primary: Annotated[
+        Optional[str],
+        typer.Option(
+            help="A,B: test designer A against B alone (for a run whose experiment names no primary comparison; "
+                 "the report says it was named after the run)."
+        ),
+    ] = None,
 ) -> None:
     """Write plots, tables and a self-contained HTML report of a run directory (also mid-run)."""
     with _Guard():
+        from .config import Primary
+
+        chosen = Primary.from_json(primary, "--primary") if primary is not None else None
         _write_report(
-            run_dir, out, threshold=threshold, survivors=survivors, near_copy=near_copy, animations=animations
-        )
+            run_dir, out, threshold=threshold, survivors=survivors, near_copy=near_copy, animations=animations,
+            primary=chosen,
+        )  # fmt: skip
 
 
 @app.command()
@@ -508,6 +531,35 @@ def replay(
         )
         if done.gif is not None:
             console.print(f"animation: {done.gif}", highlight=False)
+
+
+@app.command()
+def reevaluate(
+    run_dir: Annotated[Path, typer.Argument(help="A run directory written by compare or run.")],
+    how: Annotated[
+        Optional[str],
+        typer.Option("--reevaluate", help="TOPxSEEDS (default: the run's own setting, else 3x5)."),
+    ] = None,
+    jobs: Annotated[Optional[int], RUN_OPTIONS["jobs"]] = None,
+    workers: Annotated[int, RUN_OPTIONS["workers"]] = 1,
+    batch: Annotated[Optional[int], RUN_OPTIONS["batch"]] = None,
+) -> None:
+    """Train each trial's best bodies again under further seeds (for a run made without it); resumable."""
+    with _Guard():
+        from .config import Reevaluation
+        from .execution.options import Execution
+        from .running.reevaluation import reevaluate_directory
+
+        setting = Reevaluation.parse(how, "--reevaluate") if how is not None else None
+        if how is not None and setting is None:
+            raise ConfigError("--reevaluate off leaves nothing to do; give TOPxSEEDS such as 3x5")
+
+        def note(title: str, done: int, total: int) -> None:
+            err_console.print(escape(f"re-evaluated {title} ({done}/{total})"), highlight=False)
+
+        table = reevaluate_directory(run_dir, setting, Execution(jobs=jobs, workers=workers, batch=batch), note)
+        console.print(escape(f"{len(table)} re-evaluations in {run_dir / 'reevaluations.parquet'}; "
+                             f"report: gdabench report {run_dir}"), highlight=False)  # fmt: skip
 
 
 # -- export -----------------------------------------------------------------------------------

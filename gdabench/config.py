@@ -187,6 +187,127 @@ def parse_seeds(text: str | Sequence[int] | None, repetitions: int | None = None
     return seeds
 
 
+#: how each trial's final best bodies are scored again where rewards depend on a training seed (on by default
+#: with a controller: ``gdabench.experiment_build``); at most this many bodies and seeds each
+REEVALUATE_TOP, REEVALUATE_SEEDS, MAX_REEVALUATE = 3, 5, 100
+
+
+@dataclass(frozen=True)
+class Reevaluation:
+    """Retrain each trial's ``top`` best bodies under ``seeds`` further training seeds after its budget.
+
+    A trial's best reward is the largest of many noisy numbers (each body trained once), so it is biased
+    upward (the winner's curse); the re-evaluated score, the best of the top bodies' means over fresh
+    seeds, is not selected on its own noise (see :mod:`gdabench.running.reevaluation`).
+    """
+
+    top: int = REEVALUATE_TOP
+    seeds: int = REEVALUATE_SEEDS
+
+    def check(self) -> None:
+        for name in ("top", "seeds"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= MAX_REEVALUATE:
+                raise ConfigError(f"reevaluate: {name} must be an integer from 1 to {MAX_REEVALUATE}, got {value!r}")
+
+    @property
+    def text(self) -> str:
+        return f"{self.top}x{self.seeds}"
+
+    @classmethod
+    def parse(cls, value: Any, where: str = "reevaluate") -> Reevaluation | None:
+        """``"3x5"`` (top 3 bodies, 5 seeds each), ``"off"``/``false`` (None), ``true`` (the defaults), or a
+        table ``{top = 3, seeds = 5}``."""
+        if value is False or (isinstance(value, str) and value.strip().lower() in ("off", "false", "no", "none")):
+            return None
+        if value is True or (isinstance(value, str) and value.strip().lower() in ("on", "true", "yes")):
+            return cls()
+        if isinstance(value, Reevaluation):
+            found = value
+        elif isinstance(value, str):
+            top, sep, seeds = value.strip().lower().partition("x")
+            try:
+                found = cls(int(top), int(seeds))
+            except ValueError:
+                raise ConfigError(f"{where}: expected TOPxSEEDS such as 3x5, or off; got {value!r}") from None
+            if not sep:
+                raise ConfigError(f"{where}: expected TOPxSEEDS such as 3x5, or off; got {value!r}")
+        elif isinstance(value, Mapping):
+            unknown = sorted(set(value) - {"top", "seeds"})
+            if unknown:
+                raise ConfigError(f"{where}: unknown key {unknown[0]!r} (known: top, seeds)")
+            found = cls(value.get("top", REEVALUATE_TOP), value.get("seeds", REEVALUATE_SEEDS))
+        else:
+            raise ConfigError(f"{where}: expected TOPxSEEDS such as 3x5, off, or a table; got {value!r}")
+        try:
+            found.check()
+        except ConfigError as exc:
+            raise ConfigError(f"{where}: {str(exc).removeprefix('reevaluate: ')}") from None
+        return found
+
+
+#: per-trial scores a primary comparison can test ("auto": reevaluated_best where the run re-evaluates)
+PRIMARY_METRICS = ("auto", "best_reward", "reevaluated_best", "mean_best_so_far")
+PRIMARY_KEYS = ("a", "b", "metric", "alpha", "effect", "power", "env")
+
+
+@dataclass(frozen=True)
+class Primary:
+    """One comparison named before the run: designer ``a`` against ``b`` on ``metric``, tested alone at
+    ``alpha``; ``effect`` is the smallest effect of interest (Vargha-Delaney A12, the probability that a
+    run of ``a`` beats one of ``b``) that the seeds should detect ``power`` of the time."""
+
+    a: str
+    b: str
+    metric: str = "auto"
+    alpha: float = 0.05
+    effect: float = 0.71
+    power: float = 0.8
+    env: str | None = None
+
+    def check(self) -> None:
+        for name in ("a", "b"):
+            if not isinstance(getattr(self, name), str) or not getattr(self, name):
+                raise ConfigError(f"primary: {name} must be a designer label, got {getattr(self, name)!r}")
+        if self.a == self.b:
+            raise ConfigError(f"primary: a and b must be two designers, got {self.a!r} twice")
+        if self.metric not in PRIMARY_METRICS:
+            raise ConfigError(f"primary: metric must be one of {', '.join(PRIMARY_METRICS)}, got {self.metric!r}")
+        for name, low, high in (("alpha", 0.0, 0.5), ("effect", 0.0, 1.0), ("power", 0.0, 1.0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not low < value < high:
+                raise ConfigError(f"primary: {name} must be a number between {low:g} and {high:g}, got {value!r}")
+        if abs(self.effect - 0.5) < 0.01:
+            raise ConfigError(f"primary: effect {self.effect} is no effect (A12 = 0.5 means none); e.g. 0.71, large")
+        if self.env is not None and not isinstance(self.env, str):
+            raise ConfigError(f"primary: env must be an environment label, got {self.env!r}")
+
+    def to_json(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_json(cls, data: Any, where: str = "primary") -> Primary:
+        if isinstance(data, str):  # "gda,ga" or "gda vs ga"
+            parts = [p.strip() for p in data.replace(" vs ", ",").split(",")]
+            if len(parts) != 2:
+                raise ConfigError(f"{where}: expected two designers such as 'gda,ga', got {data!r}")
+            data = {"a": parts[0], "b": parts[1]}
+        if not isinstance(data, Mapping):
+            raise ConfigError(f"{where}: expected a table with a and b, got {data!r}")
+        unknown = sorted(set(data) - set(PRIMARY_KEYS))
+        if unknown:
+            raise ConfigError(f"{where}: unknown key {unknown[0]!r} (known: {', '.join(PRIMARY_KEYS)})")
+        missing = [k for k in ("a", "b") if k not in data]
+        if missing:
+            raise ConfigError(f"{where}: missing {missing[0]!r} (the two designers compared)")
+        found = cls(**{k: data[k] for k in PRIMARY_KEYS if k in data})
+        try:
+            found.check()
+        except ConfigError as exc:
+            raise ConfigError(f"{where}: {str(exc).removeprefix('primary: ')}") from None
+        return found
+
+
 def _choices(value: PluginChoice | Sequence[PluginChoice]) -> tuple[PluginChoice, ...]:
     return (value,) if isinstance(value, PluginChoice) else tuple(value)
 
@@ -208,6 +329,10 @@ class Experiment:
     seeds: tuple[int, ...] = DEFAULT_SEEDS
     #: end a run once it reaches the environment's optimum (the rest of its budget is not spent)
     stop_at_optimum: bool = False
+    #: score each trial's final best bodies again under further training seeds (None: off)
+    reevaluate: Reevaluation | None = None
+    #: the one comparison named before the run, tested alone (None: every pair is exploratory)
+    primary: Primary | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "designers", _choices(self.designers))
@@ -242,6 +367,24 @@ class Experiment:
             check_seed(s)
         if len(set(self.seeds)) != len(self.seeds):
             raise ConfigError(f"seeds must not repeat, got {list(self.seeds)}")
+        if self.reevaluate is not None:
+            self.reevaluate.check()
+        if self.primary is not None:
+            self._check_primary(self.primary)
+
+    def _check_primary(self, primary: Primary) -> None:
+        primary.check()
+        labels = [d.label for d in self.designers]
+        for name in (primary.a, primary.b):
+            if name not in labels:
+                raise ConfigError(f"primary: designer {name!r} is not in this run ({', '.join(labels)})")
+        envs = [e.label for e in self.envs]
+        if primary.env is not None and primary.env not in envs:
+            raise ConfigError(f"primary: environment {primary.env!r} is not in this run ({', '.join(envs)})")
+        if primary.env is None and len(envs) > 1:
+            raise ConfigError(f"primary: name the environment it is tested on (env = one of {', '.join(envs)})")
+        if primary.metric == "reevaluated_best" and self.reevaluate is None:
+            raise ConfigError("primary: metric reevaluated_best needs re-evaluation (reevaluate = '3x5')")
 
     def to_json(self) -> dict[str, Any]:
         data = asdict(self)
@@ -250,6 +393,8 @@ class Experiment:
         data["controller"] = self.controller.to_json() if self.controller else None
         data["shape"] = list(self.shape)
         data["seeds"] = list(self.seeds)
+        data["reevaluate"] = asdict(self.reevaluate) if self.reevaluate else None
+        data["primary"] = self.primary.to_json() if self.primary else None
         return data
 
     @classmethod
@@ -270,6 +415,8 @@ class Experiment:
                 budget=data["budget"],
                 seeds=tuple(data["seeds"]),
                 stop_at_optimum=bool(data.get("stop_at_optimum", False)),
+                reevaluate=Reevaluation.parse(data.get("reevaluate") or False, f"{where}.reevaluate"),
+                primary=None if data.get("primary") is None else Primary.from_json(data["primary"], f"{where}.primary"),
             )
         except KeyError as exc:
             raise ConfigError(f"{where}: missing {exc.args[0]!r}") from None

@@ -22,6 +22,8 @@ from .config import (
     DEFAULT_SEEDS,
     Experiment,
     PluginChoice,
+    Primary,
+    Reevaluation,
     format_seeds,
     parse_params,
     parse_seeds,
@@ -45,11 +47,12 @@ DEFAULTS: Mapping[str, Any] = MappingProxyType({
 
 #: the options :func:`build_run` reads
 OPTIONS = frozenset({"config", "resume", "designers", "suite", "controller", "repetitions", "out", "designer_param",
-                     "env_param", "controller_param", *DEFAULTS})  # fmt: skip
+                     "env_param", "controller_param", "reevaluate", "primary", *DEFAULTS})  # fmt: skip
 
 #: options that define the experiment, which a resumed run takes from its directory
 RESUME_FIXED = frozenset({"config", "env", "suite", "controller", "budget", "population", "shape", "out",
-                          "designer_param", "env_param", "controller_param", "stop_at_optimum"})  # fmt: skip
+                          "designer_param", "env_param", "controller_param", "stop_at_optimum", "reevaluate",
+                          "primary"})  # fmt: skip
 
 Choices = str | PluginChoice | Sequence[str | PluginChoice]
 
@@ -159,16 +162,45 @@ def _experiment(given: Mapping[str, Any], file: ExperimentFile, reg: Registry | 
     env_params = parse_params(given.get("env_param"), "environment parameter")
     designers = _choices(given["designers"]) if given.get("designers") else file.designers or ()
     seeds = _given_seeds(given)
+    controller = _controller(given, file, suite.controller if suite is not None else None)
+    primary = Primary.from_json(given["primary"]) if given.get("primary") is not None else file.primary
     return Experiment(
         designers=_with_designer_params(designers, given.get("designer_param")),
         envs=tuple(e.with_params(env_params) for e in envs),
-        controller=_controller(given, file, suite.controller if suite is not None else None),
+        controller=controller,
         shape=parse_shape(_pick("shape", given, file.shape)),
         population=_pick("population", given, file.population),
         budget=_pick("budget", given, file.budget),
-        seeds=seeds if seeds is not None else file.seeds or DEFAULTS["seeds"],
+        seeds=seeds if seeds is not None else file.seeds or _primary_seeds(primary) or DEFAULTS["seeds"],
         stop_at_optimum=_pick("stop_at_optimum", given, file.stop_at_optimum),
+        reevaluate=_reevaluate(given, file, controller),
+        primary=primary,
     )
+
+
+def _reevaluate(given: Mapping[str, Any], file: ExperimentFile, controller: PluginChoice | None) -> Reevaluation | None:
+    """Re-evaluation as given, else the file's, else on (the default top and seeds) where a controller learns
+    each body: its reward then depends on the training seed, and a trial's best is the best of noisy numbers."""
+    if given.get("reevaluate") is not None:
+        return Reevaluation.parse(given["reevaluate"], "--reevaluate")
+    if isinstance(file.reevaluate, Reevaluation):
+        return file.reevaluate
+    if file.reevaluate is False:
+        return None
+    return Reevaluation() if controller is not None else None
+
+
+def _primary_seeds(primary: Primary | None) -> tuple[int, ...] | None:
+    """Seeds 0..n-1, n from the power analysis for the primary comparison's smallest effect of interest."""
+    if primary is None:
+        return None
+    from .report.power import seeds_needed
+
+    needed = seeds_needed(primary.effect, alpha=primary.alpha, target_power=primary.power)
+    if needed is None:
+        raise ConfigError(f"primary: no number of seeds up to 1000 detects A12 = {primary.effect} {primary.power:.0%} "
+                          "of the time; give seeds, or a larger effect")  # fmt: skip
+    return tuple(range(needed))
 
 
 def _controller(given: Mapping[str, Any], file: ExperimentFile, suite_controller: str | None) -> PluginChoice | None:

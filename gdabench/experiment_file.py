@@ -12,7 +12,16 @@ any run can be repeated exactly); options given on the command line override the
     budget = 1000
     seeds = "0..9"                                  # or [0, 1, 2], or repetitions = 10
     stop_at_optimum = false
+    reevaluate = "3x5"                              # retrain each trial's top 3 bodies under 5 more seeds, or "off"
     out = "results/my-comparison"
+
+    [primary]                                       # one comparison named before the run, tested alone
+    a = "gda"
+    b = "ga"
+    metric = "auto"                                 # reevaluated_best where the run re-evaluates, else best_reward
+    alpha = 0.05
+    effect = 0.71                                   # smallest effect of interest (A12); without seeds, the seeds
+    power = 0.8                                     # the power analysis asks for to detect it this often
 
     [execution]
     jobs = 2
@@ -35,11 +44,11 @@ from typing import Any, Mapping
 import tomllib
 
 from .body import parse_shape
-from .config import PluginChoice, parse_seeds
+from .config import PluginChoice, Primary, Reevaluation, parse_seeds
 from .errors import ConfigError, GdabenchError
 
 KEYS = ("designers", "env", "envs", "suite", "controller", "shape", "population", "budget", "seeds", "repetitions",
-        "stop_at_optimum", "out", "execution")  # fmt: skip
+        "stop_at_optimum", "reevaluate", "primary", "out", "execution")  # fmt: skip
 EXECUTION_KEYS = ("jobs", "workers", "batch", "executor", "timeout", "ray_address", "cache")
 
 
@@ -57,6 +66,9 @@ class ExperimentFile:
     budget: int | None = None
     seeds: tuple[int, ...] | None = None
     stop_at_optimum: bool | None = None
+    #: "off" is kept as ``False`` so that it overrides the default (None: the file is silent)
+    reevaluate: Reevaluation | bool | None = None
+    primary: Primary | None = None
     out: Path | None = None
     execution: dict[str, Any] = field(default_factory=dict)
 
@@ -132,6 +144,10 @@ def _parse(data: Mapping[str, Any], path: Path) -> ExperimentFile:
             if not isinstance(data["stop_at_optimum"], bool):
                 raise fail("stop_at_optimum", f"expected true or false, got {data['stop_at_optimum']!r}")
             found.stop_at_optimum = data["stop_at_optimum"]
+        if "reevaluate" in data:  # a run.json's null is "off", as the run had it
+            found.reevaluate = Reevaluation.parse(False if data["reevaluate"] is None else data["reevaluate"]) or False
+        if data.get("primary") is not None:
+            found.primary = Primary.from_json(data["primary"])
         if "out" in data:
             found.out = Path(str(data["out"]))  # as --out: relative to the current directory
         execution = data.get("execution", {})

@@ -3,8 +3,10 @@ scipy and rliable reference values, censoring, several environments, and the rep
 
 from __future__ import annotations
 
+import json
 import math
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -246,41 +248,71 @@ def test_seeds_needed():
 
 
 # -- aggregates (rliable) ---------------------------------------------------------------------------------
-# Fixed inputs (runs x tasks) and what rliable 1.2.0 (pandas 2.3, numpy 2.2) returns for them:
-# metrics.aggregate_iqm, metrics.probability_of_improvement, library.score_distributions, and
-# 95% percentile intervals of library.get_interval_estimates / create_performance_profile with
-# reps=50000 after np.random.seed(0).  (rliable cannot be imported next to gdabench's pandas 3:
-# its `arch` dependency fails, so these values are stored.)
-X = np.array([[0.1, 0.5], [0.4, 0.9], [0.4, 0.2], [0.8, 0.7], [0.6, 0.3], [0.2, 0.6]])
-Y = np.array([[0.3, 0.4], [0.1, 0.8], [0.5, 0.2], [0.7, 0.1], [0.2, 0.5], [0.4, 0.6]])
-TAUS = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
-RLIABLE = {
-    "iqm_x": 0.46666666666666673, "iqm_y": 0.3833333333333333, "poi": 0.5902777777777778,
-    "profile": [1.0, 0.75, 0.41666667, 0.16666667, 0.0], "iqm_ci": [0.3, 0.63333333],
-    "profile_ci": [[1.0, 0.5, 0.16666667, 0.0, 0.0], [1.0, 1.0, 0.66666667, 0.41666667, 0.0]], "poi_ci": [0.35416667, 0.8125],
-}  # fmt: skip
+# What rliable 1.2.0 returns for hand-made normalised scores (runs x tasks), made by benchmarks/rliable_reference.py
+# in a venv with rliable and pandas 2 (rliable cannot be imported next to gdabench's pandas 3): point estimates, and
+# 95% stratified-bootstrap percentile intervals with `reps` resamples after np.random.seed(0).
+RLIABLE = json.loads((Path(__file__).parent / "expectations" / "rliable.json").read_text())
+#: bootstrap noise between rliable's resamples and gdabench's (a plain mean instead of the IQM is off by 0.04)
+TOL = 0.02
 
 
-def test_aggregate_point_estimates_are_rliables():
-    tx, ty = list(X.T), list(Y.T)
-    assert agg.iqm(tx) == pytest.approx(RLIABLE["iqm_x"]) and agg.iqm(ty) == pytest.approx(RLIABLE["iqm_y"])
-    assert agg.iqm(tx) == pytest.approx(trim_mean(X.ravel(), 0.25))
-    assert agg.improvement_probability(tx, ty) == pytest.approx(RLIABLE["poi"])
-    np.testing.assert_allclose(agg.profile(tx, TAUS), RLIABLE["profile"], atol=1e-8)
+def _scores(names) -> pd.DataFrame:
+    """The hand-made scores of ``names`` as the table aggregate_scores reads."""
+    rows = []
+    for name in names:
+        matrix = np.array(RLIABLE["inputs"][name])
+        rows += [{"designer": name, "env": f"e{t}", "normalised": v} for t in range(matrix.shape[1]) for v in matrix[:, t]]
+    return pd.DataFrame(rows)
 
 
-def test_stratified_intervals_match_rliables():
-    scores = pd.DataFrame(
-        [{"designer": d, "env": f"e{e}", "normalised": v} for d, m in (("x", X), ("y", Y)) for e in range(2) for v in m[:, e]]
-    )
-    iqms, profiles, improvements = agg.aggregate_scores(scores, resamples=50000, taus=TAUS)
-    tol = 0.02  # bootstrap noise at 50000 resamples (a plain mean instead of the IQM is off by 0.04)
-    x = iqms.set_index("designer").loc["x"]
-    np.testing.assert_allclose([x["ci_low"], x["ci_high"]], RLIABLE["iqm_ci"], atol=tol)
-    x = profiles[profiles["designer"] == "x"]
-    np.testing.assert_allclose([x["ci_low"], x["ci_high"]], RLIABLE["profile_ci"], atol=tol)
-    x = improvements.set_index(["designer_x", "designer_y"]).loc[("x", "y")]
-    np.testing.assert_allclose([x["ci_low"], x["ci_high"]], RLIABLE["poi_ci"], atol=tol)
+@pytest.mark.parametrize("name", ["X", "Y", "A", "B", "C"])
+def test_aggregate_point_estimates_are_rliables(name):
+    tasks = list(np.array(RLIABLE["inputs"][name]).T)
+    theirs = RLIABLE["designers"][name]
+    assert agg.iqm(tasks) == pytest.approx(theirs["iqm"])
+    assert agg.iqm(tasks) == pytest.approx(trim_mean(np.concatenate(tasks), 0.25))
+    np.testing.assert_allclose(agg.profile(tasks, RLIABLE["taus"]), theirs["profile"], atol=1e-8)
+
+
+@pytest.mark.parametrize("pair", ["X,Y", "A,B", "C,B"])
+def test_improvement_probability_is_rliables(pair):
+    x, y = (list(np.array(RLIABLE["inputs"][n]).T) for n in pair.split(","))
+    assert agg.improvement_probability(x, y) == pytest.approx(RLIABLE["improvement"][pair]["probability"])
+
+
+@pytest.mark.parametrize("names", [("X", "Y"), ("A", "B", "C")])
+def test_stratified_intervals_match_rliables(names):
+    iqms, profiles, improvements = agg.aggregate_scores(_scores(names), resamples=RLIABLE["reps"], taus=RLIABLE["taus"])
+    for name in names:
+        theirs = RLIABLE["designers"][name]
+        mine = iqms.set_index("designer").loc[name]
+        np.testing.assert_allclose([mine["ci_low"], mine["ci_high"]], theirs["iqm_ci"], atol=TOL)
+        mine = profiles[profiles["designer"] == name]
+        np.testing.assert_allclose([mine["ci_low"], mine["ci_high"]], theirs["profile_ci"], atol=TOL)
+    for pair, theirs in RLIABLE["improvement"].items():
+        x, y = pair.split(",")
+        if {x, y} <= set(names):
+            mine = improvements.set_index(["designer_x", "designer_y"]).loc[(x, y)]
+            np.testing.assert_allclose([mine["ci_low"], mine["ci_high"]], theirs["ci"], atol=TOL)
+
+
+def _rliable():
+    """rliable's modules where they import (its arch dependency fails next to pandas 3: a TypeError, not an
+    ImportError, so pytest.importorskip would not skip)."""
+    try:
+        from rliable import library, metrics
+    except Exception as exc:  # noqa: BLE001
+        pytest.skip(f"rliable does not import here: {type(exc).__name__}")
+    return library, metrics
+
+
+def test_aggregates_against_rliable_itself_where_it_imports():
+    library, metrics = _rliable()
+    for name in ("X", "A", "C"):
+        matrix = np.array(RLIABLE["inputs"][name])
+        assert agg.iqm(list(matrix.T)) == pytest.approx(metrics.aggregate_iqm(matrix))
+    x, y = np.array(RLIABLE["inputs"]["A"]), np.array(RLIABLE["inputs"]["B"])
+    assert agg.improvement_probability(list(x.T), list(y.T)) == pytest.approx(metrics.probability_of_improvement(x, y))
 
 
 def test_stratified_bootstrap_never_mixes_environments():
@@ -362,3 +394,19 @@ def test_several_environments_get_the_aggregate_page(tmp_path):
     assert list(iqm["designer"]) == ["ga", "random"] and (iqm["envs"] == 2).all()
     assert set(pd.read_csv(report.out / "pairwise.csv")["env"]) == {"simple", "two-peaks"}
     assert (report.out / "ecdf_two-peaks.png").is_file() and (report.out / "performance_profiles.png").is_file()
+
+
+def test_scores_are_normalised_against_random_search_and_the_optimum():
+    """rliable's Atari normalisation: 0 = the random designer's median on the environment, 1 = its optimum
+    (where known; else the best run); where random did not run, the lowest run counts 0."""
+    frame = pd.concat([
+        _scored({"random": [2.0, 4.0, 6.0], "ga": [8.0, 10.0, 3.0]}, env="e1"),
+        _scored({"ga": [1.0, 3.0], "cppn": [2.0, 5.0]}, env="e2"),
+    ])  # fmt: skip
+    scores = agg.normalised_scores(frame, optima={"e1": 12.0})
+    e1 = scores[scores["env"] == "e1"].set_index(["designer", "seed"])["normalised"]
+    assert e1.loc[("random", 1)] == 0.0 and e1.loc[("ga", 1)] == 0.75 and e1.loc[("ga", 2)] == pytest.approx(-1 / 8)
+    e2 = scores[scores["env"] == "e2"].set_index(["designer", "seed"])["normalised"]
+    assert e2.loc[("ga", 0)] == 0.0 and e2.loc[("cppn", 1)] == 1.0
+    assert agg.normalisation_words(scores) == ("e1: 0 = 4 (random's median), 1 = 12 (optimum); "
+                                               "e2: 0 = 1 (lowest run), 1 = 5 (best run)")  # fmt: skip

@@ -84,10 +84,64 @@ def test_the_walker_reference_page_shows_the_committed_runs_own_figures():
     for (designer, generation), group in rows.groupby(["designer", "generation"]):
         line = next(r for r in table if r.startswith(f"| {designer} | {generation} | {len(group)} | "))
         assert f"| {group['max'].median():.2f} [{group['max'].min():.2f}, {group['max'].max():.2f}] |" in line
-        thesis = hooks.THESIS_WALKER_BEST.get(designer, {}).get(generation)
+        thesis = hooks.thesis_walker_best(ROOT).get(designer, {}).get(generation)
         assert line.endswith(f"| {thesis:.2f} |" if thesis is not None else "|  |")
     assert [r for r in table if r.startswith("| gda | 0 |")][0].endswith("| 6.22 |")  # the thesis's GDA, generation 0
+    # the author's published runs (SPEC.md): GDA 6.22, 7.88, 9.55, 8.90, 8.28; GA 8.89 ... 9.53 by 4; CPPN-NEAT 9.56
+    author = {d: {g: round(v, 2) for g, v in gens.items()} for d, gens in hooks.thesis_walker_best(ROOT).items()}
+    assert [author["gda"][g] for g in range(5)] == [6.22, 7.88, 9.55, 8.90, 8.28]
+    assert (author["ga"][0], author["ga"][4], author["cppn"][0]) == (8.89, 9.53, 9.56)
     assert hooks.reference_summary(ROOT, "walker") in (WALKER_RUN / "report" / "summary.md").read_text()
+
+
+def test_the_thesis_budget_table_is_the_committed_rows_against_the_authors():
+    """The thesis-budget page's table comes from docs/benchmarks/output/thesis-budget.csv: each budget's Spearman
+    with the author's rewards, recomputed here, and the author's rewards are those of the committed bodies CSV."""
+    import pandas as pd
+    from scipy.stats import spearmanr
+
+    hooks = docs_hooks()
+    assert "<!-- gdabench:thesis-budget -->" in (ROOT / "docs" / "benchmarks" / "thesis-budget.md").read_text()
+    rows = pd.read_csv(ROOT / hooks.THESIS_BUDGET)
+    author = pd.read_csv(ROOT / hooks.THESIS_BODIES, comment="#").drop_duplicates("body").set_index("body")["reward"]
+    assert (rows["author"] == rows["body"].map(author)).all() and rows["body"].nunique() >= 24
+    table = hooks.thesis_budget(ROOT).splitlines()
+    for (budget, seed), g in rows.groupby(["budget", "seed"]):
+        line = next(r for r in table if r.startswith(f"| {budget:,} | {seed} | {len(g)} | "))
+        assert line.split(" | ")[3] == f"{spearmanr(g['reward'], g['author']).statistic:.2f}"
+
+
+def test_the_walker_pages_reevaluation_is_the_runs():
+    """Raw against re-evaluated best on the walker page, from the committed re-evaluations (once committed)."""
+    from gdabench.report.reevaluated import trial_scores
+    from gdabench.results import read_parquet
+    from gdabench.running.reevaluation import load
+
+    hooks = docs_hooks()
+    again = load(WALKER_RUN)
+    if again.empty:
+        assert "not committed yet" in hooks.walker_reevaluated(ROOT)
+        return
+    trials = trial_scores(read_parquet(WALKER_RUN / "evaluations.parquet"), again)
+    table = hooks.walker_reevaluated(ROOT).splitlines()
+    for designer, g in trials.groupby("designer"):
+        line = next(r for r in table if r.startswith(f"| {designer} | {len(g)} | "))
+        assert f"| {g['raw_best'].median():.2f} | {g['reevaluated_best'].median():.2f} |" in line
+
+
+def test_the_walker_pages_measures_are_the_runs():
+    """Evaluations to a reward and mean best-so-far on the walker page, from the committed rows."""
+    hooks = docs_hooks()
+    from gdabench.report.summary import per_run
+    from gdabench.results import read_parquet
+
+    rows = read_parquet(WALKER_RUN / "evaluations.parquet")
+    table = hooks.walker_measures(ROOT).splitlines()
+    reached = per_run(rows, 5.0).groupby("designer")["evals_to_threshold"]
+    for designer, to_five in reached:
+        line = next(r for r in table if r.startswith(f"| {designer} | 5 | "))
+        assert f"| {int(to_five.notna().sum())}/5, " in line
+    assert "93.8%" in table[2]  # five seeds: the range, with its own coverage
 
 
 def test_the_walker_page_describes_each_designers_best_bodies_by_their_materials():

@@ -26,7 +26,13 @@ from gdabench.report import plots
 from gdabench.report.bodies import COLOURS, body_image
 from gdabench.report.build import write_report
 from gdabench.report.diversity import categorize, body_matrix, diversity
-from gdabench.report.stats import best_so_far_curve, bootstrap_ci, censored_median, generation_rewards
+from gdabench.report.stats import (
+    best_so_far_curve,
+    censored_median,
+    generation_rewards,
+    median_interval,
+    order_statistic_ranks,
+)
 from gdabench.execution import Execution
 from gdabench.running.events import RunListener
 from gdabench.running.runner import compare
@@ -177,7 +183,7 @@ def test_best_so_far_curve_matches_pandas(table, run_dir, report):
             row = curve.loc[(designer, n)]
             assert row["median"] == pytest.approx(np.median(values))
             assert min(values) <= row["ci_low"] <= row["median"] <= row["ci_high"] <= max(values)
-            assert row["runs"] == len(SEEDS)
+            assert row["runs"] == len(SEEDS) and row["ci_level"] == order_statistic_ranks(len(SEEDS))[1]
 
 
 def test_diversity_matches_a_brute_force_count(table, run_dir, report):
@@ -266,15 +272,15 @@ def test_body_image_uses_evolution_gym_colours():
 
 
 # -- statistics ------------------------------------------------------------------------------------
-def test_bootstrap_and_censoring():
+def test_median_intervals_and_censoring():
     assert censored_median([10.0, math.nan, math.nan]) == math.inf
     assert censored_median([10.0, 20.0, math.nan]) == 20.0
-    low, high = bootstrap_ci([1.0, 2.0, 3.0, 4.0, 100.0])
-    assert 1.0 <= low <= 3.0 <= high <= 100.0
-    assert bootstrap_ci([1.0, 2.0, 3.0, 4.0, 100.0]) == (low, high)  # seeded
-    low, high = bootstrap_ci([5.0, math.inf, math.inf])
-    assert low == 5.0 and high == math.inf
-    assert bootstrap_ci([7.0]) == (7.0, 7.0)
+    five = median_interval([4.0, 1.0, 100.0, 3.0, 2.0])  # 5 seeds: the range, which covers 93.75%
+    assert (five.median, five.low, five.high, five.level) == (3.0, 1.0, 100.0, 0.9375)
+    censored_runs = median_interval([5.0, math.inf, math.inf])
+    assert censored_runs.low == 5.0 and censored_runs.high == math.inf
+    one = median_interval([7.0])
+    assert (one.low, one.high, one.level) == (7.0, 7.0, 0.0)
 
 
 def test_best_so_far_curve_skips_failures_and_stops_where_the_run_stopped():

@@ -19,6 +19,11 @@ Generated so that they cannot drift from the code or the committed data:
   each variant's best reward per seed beside its designer's;
 * ``<!-- gdabench:walker-transfer -->`` becomes the transfer check of that run's best bodies in Evolution
   Gym, from its ``transfer.csv``, summarised by ``benchmarks/walker_transfer.py``'s own functions;
+* ``<!-- gdabench:walker-reevaluated -->``, ``<!-- gdabench:walker-measures -->`` and ``<!-- gdabench:walker-tests -->``
+  become the walker run's raw against re-evaluated scores (``reevaluations.parquet``), its measures that do not
+  saturate (evaluations to a reward, mean best-so-far) and its primary and exploratory tests (``pairwise.csv``);
+* ``<!-- gdabench:thesis-budget -->`` and ``<!-- gdabench:thesis-budget-bodies -->`` become the thesis's budget
+  against its author's numbers, from ``docs/benchmarks/output/thesis-budget.csv`` (benchmarks/thesis_budget.py);
 * ``<!-- gdabench:extras -->`` becomes the table of the optional extras in ``pyproject.toml``.
 
 Files outside ``docs/`` that pages show or link to (the committed reference runs under
@@ -46,13 +51,13 @@ log = get_plugin_logger("gdabench")
 
 #: committed results published with the site (Markdown files there are not pages)
 PUBLISHED = "results/reference"
-#: the thesis's best reward per generation on Walker-v0 (chapter 5.1, one run each, PPO with 1e6 timesteps
-#: per body; SPEC.md): GDA in every generation it reports, the GA at its first and fifth, CPPN-NEAT at its first
-THESIS_WALKER_BEST = {
-    "gda": {0: 6.22, 1: 7.88, 2: 9.55, 3: 8.90, 4: 8.28},
-    "ga": {0: 8.89, 4: 9.53},
-    "cppn": {0: 9.56},
-}
+#: the thesis author's published Walker-v0 bodies and rewards (JohnStewardson/evolving_robots_diffusion, runs of
+#: 26 August, 13 September and 27 September 2024; benchmarks/thesis_walker_bodies.py): the thesis's figure 5.1
+THESIS_BODIES = "docs/benchmarks/output/thesis-walker-bodies.csv"
+#: what benchmarks/thesis_budget.py trained of them, row by row
+THESIS_BUDGET = "docs/benchmarks/output/thesis-budget.csv"
+#: rewards the walker page counts evaluations to (the runs' generation-0 bests lie between 3.3 and 5.3)
+WALKER_THRESHOLDS = (5.0, 6.0)
 
 #: what each optional extra of pyproject.toml is for; an extra missing here fails the build
 EXTRAS = {
@@ -117,16 +122,30 @@ def _read_walker(name: str, root: Path, reader: Any, run: str = "walker", **kwar
         raise PluginError(f"cannot read the reference run {run}'s {name} ({path}): {exc}") from exc
 
 
+def thesis_walker_best(root: Path) -> dict[str, dict[int, float]]:
+    """The best reward of each generation of the thesis author's Walker-v0 runs (one run per designer, PPO with
+    1e6 timesteps per body, scored without the final step's reward), from their published data."""
+    import pandas as pd
+
+    try:
+        bodies = pd.read_csv(root / THESIS_BODIES, comment="#")
+    except OSError as exc:
+        raise PluginError(f"cannot read the thesis author's bodies {THESIS_BODIES}: {exc}") from exc
+    best = bodies.groupby(["designer", "generation"])["reward"].max()
+    return {str(d): {int(g): float(v) for (dd, g), v in best.items() if dd == d} for d in best.index.levels[0]}
+
+
 def thesis_walker(root: Path) -> str:
     """Per designer and generation of the walker reference run: the population's best, mean and worst reward
-    (medians over seeds; the best also its range), beside the thesis's best where it gives one."""
+    (medians over seeds; the best also its range), beside the best of the thesis author's run."""
     import pandas as pd
 
     frame = _read_walker("report/generations.csv", root, pd.read_csv)
-    rows = ["| designer | generation | seeds | best: median [range] | mean | worst | thesis: best |",
+    author = thesis_walker_best(root)
+    rows = ["| designer | generation | seeds | best: median [range] | mean | worst | thesis (author's data): best |",
             "|---|--:|--:|--:|--:|--:|--:|"]
     for (designer, generation), group in frame.groupby(["designer", "generation"], sort=False):
-        thesis = THESIS_WALKER_BEST.get(str(designer), {}).get(int(generation))
+        thesis = author.get(str(designer), {}).get(int(generation))
         rows.append(
             f"| {designer} | {generation} | {len(group)} | {group['max'].median():.2f} "
             f"[{group['max'].min():.2f}, {group['max'].max():.2f}] | {group['mean'].median():.2f} "
@@ -360,6 +379,107 @@ def evogym_tasks() -> str:
     return "\n".join(rows)
 
 
+def thesis_budget(root: Path) -> str:
+    """The agreement of each budget's rewards with the thesis author's, from benchmarks/thesis_budget.py's rows."""
+    import pandas as pd
+
+    budget = _benchmark(root, "thesis_budget")
+    try:
+        rows = pd.read_csv(root / THESIS_BUDGET)
+    except OSError as exc:
+        raise PluginError(f"cannot read {THESIS_BUDGET}: {exc}") from exc
+    return budget.markdown(budget.table(rows))
+
+
+def thesis_budget_bodies(root: Path) -> str:
+    """Every body of the sample: the author's reward and each budget's (mean over its training seeds)."""
+    import pandas as pd
+
+    rows = pd.read_csv(root / THESIS_BUDGET)
+    wide = rows.pivot_table(index=["body", "author", "author_designer"], columns="budget", values="reward", aggfunc="mean")
+    wide = wide.sort_index(level="author", ascending=False)
+    budgets = list(wide.columns)
+    lines = ["| body | designer (author) | author, 1e6 | " + " | ".join(f"{b:,}" for b in budgets) + " |",
+             "|---|---|--:" + "|--:" * len(budgets) + "|"]
+    for (body, author, designer), values in wide.iterrows():
+        cells = " | ".join("" if pd.isna(v) else f"{v:.2f}" for v in values)
+        lines.append(f"| `{body}` | {designer} | {author:.2f} | {cells} |")
+    return "\n".join(lines)
+
+
+def _reevaluations(root: Path) -> Any:
+    from gdabench.running.reevaluation import load
+
+    return load(root / PUBLISHED / "walker")
+
+
+def walker_reevaluated(root: Path) -> str:
+    """Per designer of the walker run: raw best against re-evaluated best, the drop and the noise per body."""
+    from gdabench.report.reevaluated import body_noise, pooled_sd, trial_scores
+
+    again = _reevaluations(root)
+    if again.empty:
+        return "*(the walker run's re-evaluation is not committed yet)*"
+    rows = _rows(root)
+    trials = trial_scores(rows, again)
+    bodies = body_noise(again)
+    lines = ["| designer | trials | raw best: median | re-evaluated best: median | drop: median [min, max] "
+             "| noise SD per body: pooled [min, max] | best body changed |", "|---|--:|--:|--:|--:|--:|--:|"]
+    for designer, g in trials.groupby("designer", sort=False):
+        mine = bodies[bodies["designer"] == designer]
+        lines.append(
+            f"| {designer} | {len(g)} | {g['raw_best'].median():.2f} | {g['reevaluated_best'].median():.2f} "
+            f"| {g['drop'].median():+.2f} [{g['drop'].min():+.2f}, {g['drop'].max():+.2f}] "
+            f"| {pooled_sd(mine):.2f} [{mine['sd'].min():.2f}, {mine['sd'].max():.2f}] "
+            f"| {int((g['raw_body'] != g['reevaluated_body']).sum())}/{len(g)} |"
+        )
+    ranks = trials.groupby("designer", sort=False)[["raw_best", "reevaluated_best"]].mean()
+    order = lambda c: ", ".join(ranks[c].sort_values(ascending=False).index)  # noqa: E731
+    lines += ["", f"Ranking by the mean over seeds: raw {order('raw_best')}; re-evaluated {order('reevaluated_best')}. "
+              f"All {len(bodies)} re-evaluated bodies: noise SD pooled {pooled_sd(bodies):.2f}, median drop of a "
+              f"trial {trials['drop'].median():+.2f}."]
+    return "\n".join(lines)
+
+
+def walker_measures(root: Path) -> str:
+    """Measures that do not saturate: evaluations to a reward (censored) and the mean best-so-far reward."""
+    from gdabench.report.stats import median_interval
+    from gdabench.report.summary import per_run
+    from gdabench.report.tables import number, with_interval
+
+    rows = _rows(root)
+    runs = per_run(rows)
+    to = {t: per_run(rows, t).set_index(["designer", "seed"])["evals_to_threshold"] for t in WALKER_THRESHOLDS}
+    header = ["designer", "seeds", "mean best-so-far: median [interval]"]
+    header += [f"reached {t:g}: seeds, median evaluations [interval]" for t in WALKER_THRESHOLDS]
+    lines = ["| " + " | ".join(header) + " |", "|---" + "|--:" * (len(header) - 1) + "|"]
+    for designer, g in runs.groupby("designer", sort=False):
+        auc = median_interval(g["mean_best_so_far"])
+        cells = [designer, str(len(g)), with_interval(auc.median, auc.low, auc.high, level=auc.level)]
+        for t in WALKER_THRESHOLDS:
+            mine = to[t].loc[designer]
+            reached = median_interval(mine.fillna(float("inf")))
+            cells.append(f"{int(mine.notna().sum())}/{len(mine)}, "
+                         + with_interval(reached.median, reached.low, reached.high, digits=4, level=reached.level))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines).replace(" inf", " not reached").replace("[not reached", "[" + number(float("inf")))
+
+
+def walker_tests(root: Path) -> str:
+    """The walker run's primary comparison and its exploratory pairs, on the re-evaluated best where the run has
+    it, as the report tests them (its pairwise.csv)."""
+    import pandas as pd
+
+    tests = _read_walker("report/pairwise.csv", root, pd.read_csv)
+    lines = ["| A | B | role | metric | pairs (non-tied) | median A - B | p | Holm p | A12 |",
+             "|---|---|---|---|--:|--:|--:|--:|--:|"]
+    for r in tests.itertuples():
+        holm = "" if r.role == "primary" else f"{r.p_holm:.2g}"
+        lines.append(f"| {r.designer_a} | {r.designer_b} | {r.role} | {r.metric} | {r.pairs} ({r.untied}) "
+                     f"| {r.difference:+.2f} | {r.p:.2g} | {holm} | {r.a12:.2f} |")
+    return "\n".join(lines)
+
+
 def extras_table(root: Path) -> str:
     with open(root / "pyproject.toml", "rb") as fh:
         extras: dict[str, list[str]] = tomllib.load(fh)["project"].get("optional-dependencies", {})
@@ -418,6 +538,11 @@ def on_page_markdown(markdown: str, page: Any, config: Any, files: Files) -> str
         "walker-transfer": lambda: walker_transfer(root),
         "walker-claims": lambda run="walker": walker_claims(root, run),
         "walker-variants": lambda run="walker-thesis": walker_variants(root, run),
+        "walker-reevaluated": lambda: walker_reevaluated(root),
+        "walker-measures": lambda: walker_measures(root),
+        "walker-tests": lambda: walker_tests(root),
+        "thesis-budget": lambda: thesis_budget(root),
+        "thesis-budget-bodies": lambda: thesis_budget_bodies(root),
         "extras": lambda: extras_table(root),
         "evogym-tasks": evogym_tasks,
     }

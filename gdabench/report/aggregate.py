@@ -1,12 +1,17 @@
 """Over environments: normalised scores, IQM, performance profiles, probability of improvement.
 
 The definitions are rliable's (Agarwal et al., "Deep RL at the edge of the statistical
-precipice", 2021), computed with numpy and scipy (rliable itself would bring arch, statsmodels
-and seaborn for these few lines; the tests check these functions against it):
+precipice", 2021), computed with numpy and scipy: rliable 1.2.0 cannot be imported next to
+pandas 3 (its ``arch < 8`` dependency fails to import; ``arch`` 8 breaks rliable's bootstrap), so
+the tests check these functions against values rliable computed on hand-made data
+(``benchmarks/rliable_reference.py``, run in a venv with rliable and pandas 2), and against rliable
+itself wherever it imports:
 
-* each run's score on an environment is *normalised* to [0, 1] by that environment's bounds:
-  by default the lowest and the highest score of any run of any designer there (the optimum
-  instead of the highest when it is known and higher), so 1 is the best seen (or the optimum);
+* each run's score on an environment is *normalised* as rliable normalises Atari scores
+  (``(score - random) / (best - random)``): 0 = the median score of the ``random`` designer's runs
+  on that environment where it ran there (else the lowest score of any run), 1 = the environment's
+  optimum where it is known (else the highest score of any run), so a designer no better than
+  random search scores about 0 and one that finds the optimum 1;
 * the **IQM** is the mean of the middle 50% of all normalised run scores pooled over
   environments (``scipy.stats.trim_mean(..., 0.25)``): robust to outlier runs, yet uses half
   of them, unlike the median;
@@ -38,6 +43,8 @@ from .stats import BOOTSTRAP_SEED, CONFIDENCE, RESAMPLES
 
 #: thresholds of the default performance profile
 PROFILE_POINTS = 51
+#: the designer whose median score counts 0 on an environment where it ran (random search)
+BASELINE = "random"
 
 Tasks = Sequence[np.ndarray]  # one array of run scores per environment
 
@@ -105,24 +112,43 @@ def normalised_scores(
     *,
     bounds: Mapping[str, tuple[float, float]] | None = None,
     optima: Mapping[str, float] | None = None,
+    baseline: str | None = BASELINE,
+    reevaluations: pd.DataFrame | None = None,
 ) -> pd.DataFrame:
-    """Per-run scores (see :func:`.runtimes.run_scores`) with a ``normalised`` column.
+    """Per-run scores (see :func:`.runtimes.run_scores`) with a ``normalised`` column, and the score each
+    environment maps to 0 (``zero``, from ``zero_from``) and to 1 (``one``, from ``one_from``).
 
-    ``bounds`` maps env -> (score that counts 0, score that counts 1); environments it does not
-    name get the default bounds (module docstring).  When every run scored the same, all get 1.
+    ``bounds`` maps env -> (score that counts 0, score that counts 1); environments it does not name get
+    the default bounds (module docstring; ``baseline`` names the designer whose median is 0, None: the
+    lowest run).  When the two bounds are equal, every run gets 1.
     """
-    scores = run_scores(frame, metric)
-    normalised = pd.Series(np.nan, index=scores.index)
+    scores = run_scores(frame, metric, reevaluations)
+    out = scores.assign(normalised=np.nan, zero=np.nan, one=np.nan, zero_from="", one_from="")
     for env, g in scores.groupby("env", sort=False):
         if bounds and env in bounds:
-            low, high = map(float, bounds[env])
+            (low, high), why = map(float, bounds[env]), ("given", "given")
         else:
-            low, high = float(g["score"].min()), float(g["score"].max())
+            base = g.loc[g["designer"] == baseline, "score"].dropna() if baseline else pd.Series(dtype=float)
+            low, low_from = (float(base.median()), f"{baseline}'s median") if len(base) else (
+                float(g["score"].min()), "lowest run")  # fmt: skip
             optimum = (optima or {}).get(env)
-            if optimum is not None and optimum > high:
-                high = float(optimum)
-        normalised[g.index] = (g["score"] - low) / (high - low) if high > low else 1.0
-    return scores.assign(normalised=normalised)
+            high, high_from = (float(optimum), "optimum") if optimum is not None else (
+                float(g["score"].max()), "best run")  # fmt: skip
+            why = (low_from, high_from)
+        value = (g["score"] - low) / (high - low) if high > low else pd.Series(1.0, index=g.index)
+        out.loc[g.index, "normalised"] = value
+        out.loc[g.index, ["zero", "one"]] = [low, high]
+        out.loc[g.index, "zero_from"], out.loc[g.index, "one_from"] = why
+    return out
+
+
+def normalisation_words(scores: pd.DataFrame) -> str:
+    """How each environment's scores were normalised, in one sentence."""
+    parts = []
+    for env, g in scores.groupby("env", sort=False):
+        r = g.iloc[0]
+        parts.append(f"{env}: 0 = {r['zero']:.4g} ({r['zero_from']}), 1 = {r['one']:.4g} ({r['one_from']})")
+    return "; ".join(parts)
 
 
 def _tasks(scores: pd.DataFrame) -> tuple[dict[str, list[np.ndarray]], list[str]]:

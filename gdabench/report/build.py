@@ -27,12 +27,13 @@ import numpy as np
 import pandas as pd
 
 from ..body import Body
-from ..config import Experiment
+from ..config import Experiment, Primary
 from ..errors import ConfigError, GdabenchError, RunDirectoryError
 from ..names import file_name
 from ..plugins import Registry, registry
 from ..results import RunDirectory, is_file
 from ..running.plan import Plan
+from ..running.reevaluation import load as load_reevaluations
 from ..statuses import COUNTED, OK
 from . import plots
 from .animation import animate
@@ -41,9 +42,10 @@ from .content import Figure, Report, Section, Table
 from .diversity import NEAR_COPY, SURVIVORS, diversity
 from .html import render_html
 from .markdown import render_markdown
+from .reevaluated import section as reevaluated_section
 from .staging import staged_folder
 from .stat_pages import statistics_sections
-from .stats import CONFIDENCE, RESAMPLES, best_so_far_curve, generation_rewards, median_band
+from .stats import CONFIDENCE, best_so_far_curve, fewest_for, generation_rewards, median_band, order_statistic_ranks
 from .summary import failure_counts, per_run, summarize, thresholds
 from .tables import summary_cells
 
@@ -91,6 +93,16 @@ def _budget(experiment: Experiment | None, frame: pd.DataFrame) -> int:
     return int(frame["n_evals"].max())
 
 
+def _coverage_words(frame: pd.DataFrame, confidence: float) -> str:
+    """The coverage of the median intervals of a table's designers, in words (from their numbers of seeds)."""
+    seeds = sorted(set(frame.groupby("designer")["seed"].nunique()))
+    levels = sorted({order_statistic_ranks(int(n), confidence)[1] for n in seeds})
+    text = " to ".join(f"{levels[i]:.2%}" for i in sorted({0, len(levels) - 1}))
+    if levels[0] < confidence:
+        return f"coverage {text}: too few seeds for {confidence:.0%}"
+    return f"coverage {text}"
+
+
 def _spread(generations: pd.DataFrame) -> str:
     """How the reward plot draws the spread over seeds: one generation is points with error bars, not a band."""
     return "error bars" if generations["generation"].nunique() == 1 else "band"
@@ -107,7 +119,7 @@ def _slug(label: str, taken: set[str]) -> str:
 
 
 def _facts(
-    run: RunDirectory, meta: dict[str, Any], experiment: Experiment | None, threshold: str
+    run: RunDirectory, meta: dict[str, Any], experiment: Experiment | None, threshold: str, primary: Primary | None
 ) -> list[tuple[str, str]]:
     facts = [("run", f"{meta.get('run_id', '?')} ({run.path})"), ("status", str(meta.get("status")))]
     if meta.get("command"):
@@ -132,6 +144,17 @@ def _facts(
             ),
             ("seeds", ", ".join(map(str, experiment.seeds))),
         ]
+    done = meta.get("reevaluated") or {}
+    if done:
+        facts.append(("re-evaluation", f"the {done.get('top')} best bodies of each trial, {done.get('seeds')} further "
+                                       f"training seeds each ({done.get('wall_seconds', 0):.0f} s)"))  # fmt: skip
+    if primary is not None:
+        when = "named before the run" if experiment is not None and experiment.primary == primary else (
+            "named for this report, after the run")  # fmt: skip
+        metric = primary.metric if primary.metric != "auto" else ("reevaluated_best" if done else "best_reward")
+        facts.append(("primary comparison", f"{primary.a} against {primary.b} on {metric}, at "
+                                            f"{primary.alpha:g}, smallest effect of interest A12 = {primary.effect:g} "
+                                            f"({when})"))  # fmt: skip
     facts.append(("threshold", threshold))
     for key in ("created", "finished"):
         if meta.get(key):
@@ -221,11 +244,25 @@ def definitions(confidence: float, survivors: int, near_copy: int) -> list[tuple
     """What every number of the report means (printed in the HTML and markdown)."""
     ci = f"{confidence:.0%}"
     return [
+        (
+            "Re-evaluated best",
+            "where the run re-evaluated its trials: the trial's best bodies (by their reward in the trial) trained "
+            "again under further seeds of their own; the re-evaluated best is the highest of those bodies' means over "
+            "the further seeds, the training that selected each body left out. Tests and aggregates then use it "
+            "instead of the raw best reward.",
+        ),
+        (
+            "Evaluation noise",
+            "the standard deviation of one body's rewards over the further training seeds (ddof 1); pooled over a "
+            "designer's bodies in the table.",
+        ),
         ("Evaluation", "one evaluated unique valid body; invalid and duplicate proposals use none."),
         (
             "Best reward",
-            f"best reward a run found; the table gives the median over seeds and a {ci} percentile-bootstrap interval "
-            f"of that median (seeds resampled {RESAMPLES} times, fixed resampling seed).",
+            f"best reward a run found; the table gives the median over seeds and its exact order-statistic interval "
+            f"(distribution-free: the l-th lowest and l-th highest seed, l as large as keeps the coverage at least "
+            f"{ci}). With fewer than {fewest_for(confidence)} seeds no such interval reaches {ci}: the seeds' range "
+            f"is given with its own coverage in brackets after it (5 seeds: 93.75%).",
         ),
         (
             "Evaluations to the threshold",
@@ -240,7 +277,8 @@ def definitions(confidence: float, survivors: int, near_copy: int) -> list[tuple
         ),
         (
             "Best-so-far band",
-            f"{ci} bootstrap interval of the median over seeds at each evaluation count, resampling whole runs.",
+            "order-statistic interval of the median over seeds at each evaluation count (as for the best reward; its "
+            "coverage is the ci_level column of best_so_far.csv).",
         ),
         (
             "Reward per generation",
@@ -272,20 +310,19 @@ def definitions(confidence: float, survivors: int, near_copy: int) -> list[tuple
 def _best_so_far(
     frame: pd.DataFrame, designers: list[str], budget: int, confidence: float
 ) -> tuple[dict[str, Curve], dict[str, int], pd.DataFrame]:
-    """Per designer: median best-so-far curve over seeds with its bootstrap band, and as a table."""
+    """Per designer: median best-so-far curve over seeds with its order-statistic band, and as a table."""
     x = np.arange(1, budget + 1)
     curves: dict[str, Curve] = {}
     seeds, parts = {}, []
     for d in designers:
         mine = frame[frame["designer"] == d]
         matrix = np.array([best_so_far_curve(g, budget) for _, g in mine.groupby("seed", sort=True)])
-        median, low, high = median_band(matrix, confidence=confidence)
+        median, low, high, level = median_band(matrix, confidence=confidence)
         curves[d], seeds[d] = (x, median, low, high), len(matrix)
         runs = (~np.isnan(matrix)).sum(axis=0)
         parts.append(
-            pd.DataFrame(
-                {"designer": d, "evaluations": x, "median": median, "ci_low": low, "ci_high": high, "runs": runs}
-            )
+            pd.DataFrame({"designer": d, "evaluations": x, "median": median, "ci_low": low, "ci_high": high,
+                          "ci_level": level, "runs": runs})  # fmt: skip
         )
     return curves, seeds, pd.concat(parts, ignore_index=True)
 
@@ -349,9 +386,14 @@ def write_report(
     near_copy: int = NEAR_COPY,
     animations: bool = True,
     confidence: float = CONFIDENCE,
+    primary: Primary | None = None,
     reg: Registry | None = None,
 ) -> Report:
-    """Compute and write the report of ``run_dir``; returns what was written."""
+    """Compute and write the report of ``run_dir``; returns what was written.
+
+    ``primary`` names the primary comparison when the run's experiment does not (the report then says it
+    was named after the run); the run's re-evaluations (``reevaluations.parquet``) are used where present.
+    """
     if survivors < 1:
         raise ConfigError(f"--survivors must be at least 1, got {survivors}")
     if near_copy < 0:
@@ -370,7 +412,8 @@ def write_report(
     taken: set[str] = set()
     slugs = {d: _slug(d, taken) for d in designers}
 
-    summary = summarize(frame, target, confidence=confidence)
+    reevaluations = load_reevaluations(run.path)
+    summary = summarize(frame, target, confidence=confidence, reevaluations=reevaluations)
     runs = per_run(frame, target)
     headers, rows = summary_cells(summary, confidence)
     generations = generation_rewards(frame)
@@ -398,7 +441,8 @@ def write_report(
                     Figure(
                         f"best_so_far{suffix}.png",
                         f"Best-so-far reward against evaluations{where}",
-                        f"All designers; line = median over seeds, band = {confidence:.0%} bootstrap CI of the median.",
+                        "All designers; line = median over seeds, band = order-statistic interval of the median "
+                        f"({_coverage_words(frame, confidence)}).",
                         plots.png(
                             plots.best_so_far_figure(curves, seeds=seeds, threshold=target[env], confidence=confidence)
                         ),
@@ -417,7 +461,7 @@ def write_report(
     tables["best_so_far.csv"] = (
         pd.concat(curve_tables, ignore_index=True),
         "median best-so-far reward over seeds at every evaluation count, per environment and designer, with its "
-        "bootstrap interval",
+        "order-statistic interval and that interval's coverage",
     )
 
     body_sections: list[Section] = []
@@ -471,12 +515,21 @@ def write_report(
                 ],
             )
         )
+    reevaluated: list[Section] = []
+    if len(reevaluations):
+        part, more = reevaluated_section(frame, reevaluations, designers, confidence)
+        reevaluated.append(part)
+        tables.update(more)
+    primary = _primary(primary, experiment, designers, envs, reevaluations, meta, notes)
     stat = statistics_sections(
-        frame, optima={env: t for env, t in target.items() if t is not None} or None, confidence=confidence
-    )
+        frame, optima={env: t for env, t in target.items() if t is not None} or None, confidence=confidence,
+        primary=primary, named_before=experiment is not None and experiment.primary == primary,
+        reevaluations=reevaluations if len(reevaluations) else None,
+    )  # fmt: skip
     tables.update(stat.tables)
     significance, *statistics = stat.sections
-    sections = [significance, *performance, *statistics, *body_sections]  # what is significant first, then the curves
+    # what is significant first, then where the scores come from, then the curves
+    sections = [significance, *reevaluated, *performance, *statistics, *body_sections]
 
     env_name = (
         ", ".join(e.label for e in experiment.envs)
@@ -487,7 +540,7 @@ def write_report(
         run_path=run.path,
         out=out,
         title=f"gdabench report: {', '.join(designers)} on {env_name}",
-        facts=_facts(run, meta, experiment, target_text),
+        facts=_facts(run, meta, experiment, target_text, primary),
         notes=notes,
         summary=summary,
         headers=headers,
@@ -498,6 +551,36 @@ def write_report(
     )
     _write(report, tables)
     return report
+
+
+def _primary(
+    given: Primary | None,
+    experiment: Experiment | None,
+    designers: list[str],
+    envs: list[str],
+    reevaluations: pd.DataFrame,
+    meta: dict[str, Any],
+    notes: list[str],
+) -> Primary | None:
+    """The primary comparison: the experiment's (named before the run), else one given for the report."""
+    recorded = experiment.primary if experiment is not None else None
+    if given is None or given == recorded:
+        return recorded
+    if recorded is not None:
+        raise ConfigError(f"the run names its primary comparison ({recorded.a} against {recorded.b}) before it ran; "
+                          "a report cannot replace it")  # fmt: skip
+    given.check()
+    for name in (given.a, given.b):
+        if name not in designers:
+            raise ConfigError(f"--primary: designer {name!r} is not in this run ({', '.join(designers)})")
+    if given.env is None and len(envs) > 1:
+        raise ConfigError(f"--primary: name the environment (env = one of {', '.join(envs)})")
+    if given.metric == "reevaluated_best" and not len(reevaluations):
+        raise ConfigError("--primary: this run has no re-evaluations (gdabench reevaluate RUN_DIR)")
+    notes.append(f"the primary comparison ({given.a} against {given.b}) was named for this report, after the run "
+                 f"(created {meta.get('created', '?')}): it is tested alone as planned comparisons are, but it was "
+                 "not pre-registered")  # fmt: skip
+    return given
 
 
 def _ranks_section(

@@ -100,7 +100,7 @@ def best_so_far_figure(
     threshold: float | None = None,
     confidence: float = CONFIDENCE,
 ) -> Figure:
-    """All designers on one plot: median best-so-far reward over seeds with its bootstrap band."""
+    """All designers on one plot: median best-so-far reward over seeds with its order-statistic band."""
     fig = Figure(figsize=(7.5, 4.5), layout="constrained")
     ax = fig.subplots()
     for i, (designer, (x, median, low, high)) in enumerate(curves.items()):
@@ -113,7 +113,7 @@ def best_so_far_figure(
     ax.set_xlabel("evaluations")
     ax.set_ylabel("best reward so far")
     ax.set_title(
-        f"Best-so-far reward: median over seeds, band = {confidence:.0%} bootstrap CI of the median", fontsize=10
+        "Best-so-far reward: median over seeds, band = order-statistic interval of the median", fontsize=10
     )
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="lower right")

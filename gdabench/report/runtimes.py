@@ -38,9 +38,9 @@ from .stats import (
     RESAMPLES,
     TOLERANCE,
     best_so_far_curve,
-    bootstrap_ci,
     censored_median,
     mean_best_so_far,
+    median_interval,
 )
 
 #: targets in the ERT table, and in the ECDF (where many targets make a smooth curve)
@@ -137,15 +137,41 @@ METRICS: dict[str, tuple[str, Callable[[RunTrace], float]]] = {
     "best_reward": ("best reward", lambda t: t.final),
     "mean_best_so_far": ("mean best-so-far reward", lambda t: mean_best_so_far(t.curve)),
 }
+#: the trial's best body's mean over further training seeds (:mod:`.reevaluated`), from the re-evaluations
+REEVALUATED = "reevaluated_best"
+METRIC_NAMES = {**{k: v[0] for k, v in METRICS.items()}, REEVALUATED: "re-evaluated best reward"}
 
 
-def run_scores(frame: pd.DataFrame, metric: str = "best_reward") -> pd.DataFrame:
-    """One row per run: env, designer, run_id, seed, evaluations and the metric's value as ``score``."""
-    if metric not in METRICS:
-        raise ConfigError(f"unknown metric {metric!r}; choose one of {', '.join(METRICS)}")
+def resolve_metric(metric: str, reevaluations: pd.DataFrame | None) -> str:
+    """``auto``: the re-evaluated best where the run has re-evaluations, else the best reward."""
+    if metric == "auto":
+        return REEVALUATED if reevaluations is not None and len(reevaluations) else "best_reward"
+    return metric
+
+
+def run_scores(
+    frame: pd.DataFrame, metric: str = "best_reward", reevaluations: pd.DataFrame | None = None
+) -> pd.DataFrame:
+    """One row per run: env, designer, run_id, seed, evaluations and the metric's value as ``score``
+    (``reevaluated_best`` needs the run's re-evaluations; a run without any scores NaN)."""
+    metric = resolve_metric(metric, reevaluations)
+    if metric not in METRIC_NAMES:
+        raise ConfigError(f"unknown metric {metric!r}; choose one of {', '.join(METRIC_NAMES)}")
+    columns = ["env", "designer", "run_id", "seed", "evaluations", "score"]
+    if metric == REEVALUATED:
+        from .reevaluated import TRIAL, trial_scores
+
+        if reevaluations is None or not len(reevaluations):
+            raise ConfigError("the re-evaluated best needs the run's re-evaluations (gdabench reevaluate RUN_DIR)")
+        runs = pd.DataFrame([(t.env, t.designer, t.run_id, t.seed, t.evaluations) for t in run_traces(frame)],
+                            columns=columns[:-1])  # fmt: skip
+        scores = trial_scores(frame, reevaluations)[[*TRIAL, "reevaluated_best"]].rename(
+            columns={"reevaluated_best": "score"}
+        )
+        return runs.merge(scores.astype({"seed": runs["seed"].dtype}), on=TRIAL, how="left")[columns]
     score = METRICS[metric][1]
     rows = [(t.env, t.designer, t.run_id, t.seed, t.evaluations, score(t)) for t in run_traces(frame)]
-    return pd.DataFrame(rows, columns=["env", "designer", "run_id", "seed", "evaluations", "score"])
+    return pd.DataFrame(rows, columns=columns)
 
 
 # -- targets and budgets ---------------------------------------------------------------------------
@@ -321,10 +347,10 @@ def fixed_budget(
     *,
     optima: Mapping[str, float] | None = None,
     confidence: float = CONFIDENCE,
-    resamples: int = RESAMPLES,
 ) -> pd.DataFrame:
-    """Best-so-far reward at each budget per (env, designer): median over runs with its bootstrap
-    interval, quartiles and mean.  ``runs`` counts the runs that got that far (see :meth:`RunTrace.at`)."""
+    """Best-so-far reward at each budget per (env, designer): median over runs with its order-statistic
+    interval and that interval's coverage (``ci_level``, see :func:`.stats.median_interval`), quartiles
+    and mean.  ``runs`` counts the runs that got that far (see :meth:`RunTrace.at`)."""
     rows = []
     for env, env_traces in by_env(run_traces(frame)).items():
         optimum = (optima or {}).get(env)
@@ -336,16 +362,18 @@ def fixed_budget(
             for b in sorted(int(x) for x in chosen):
                 values = np.array([t.at(b, optimum) for t in mine], dtype=float)
                 values = values[~np.isnan(values)]
-                low, high = bootstrap_ci(values, confidence=confidence, resamples=resamples)
+                interval = median_interval(values, confidence)
                 rows.append(
                     {
                         "env": env, "designer": designer, "budget": b, "runs": len(values),
-                        "median": float(np.median(values)) if len(values) else math.nan, "ci_low": low, "ci_high": high,
+                        "median": interval.median, "ci_low": interval.low, "ci_high": interval.high,
+                        "ci_level": interval.level,
                         "q25": float(np.quantile(values, 0.25)) if len(values) else math.nan,
                         "q75": float(np.quantile(values, 0.75)) if len(values) else math.nan,
                         "mean": float(values.mean()) if len(values) else math.nan,
                     }
                 )  # fmt: skip
     return pd.DataFrame(
-        rows, columns=["env", "designer", "budget", "runs", "median", "ci_low", "ci_high", "q25", "q75", "mean"]
+        rows,
+        columns=["env", "designer", "budget", "runs", "median", "ci_low", "ci_high", "ci_level", "q25", "q75", "mean"],
     )

@@ -13,13 +13,14 @@ from typing import Mapping
 
 import pandas as pd
 
+from ..config import Primary
 from ..names import file_name
 from . import plots, stat_plots
-from .aggregate import PROFILE_POINTS, aggregate_scores, normalised_scores
+from .aggregate import PROFILE_POINTS, aggregate_scores, normalisation_words, normalised_scores
 from .content import Figure, Section, Table
 from .pairwise import pairwise
 from .power import ALPHA, POWER, REFERENCE_EFFECTS, minimum_seeds, seeds_needed
-from .runtimes import ECDF_TARGETS, fixed_budget, fixed_target, runtime_ecdf
+from .runtimes import ECDF_TARGETS, METRIC_NAMES, fixed_budget, fixed_target, resolve_metric, runtime_ecdf
 from .stats import CONFIDENCE
 from .tables import NOT_REACHED, number, with_interval
 
@@ -37,18 +38,28 @@ def statistics_sections(
     optima: Mapping[str, float] | None = None,
     confidence: float = CONFIDENCE,
     alpha: float = ALPHA,
+    primary: Primary | None = None,
+    named_before: bool = True,
+    reevaluations: pd.DataFrame | None = None,
 ) -> StatisticsPages:
-    """Sections for the report of ``frame`` (one or several environments)."""
+    """Sections for the report of ``frame`` (one or several environments).
+
+    Tests and aggregates score each run by its re-evaluated best where ``reevaluations`` has rows
+    (:mod:`.reevaluated`), else by its best reward; ``primary`` is the comparison tested alone, ``named_before``
+    whether the experiment named it before the run (else it was named for the report).
+    """
     designers = [str(d) for d in pd.unique(frame["designer"])]
     envs = [str(e) for e in pd.unique(frame["env"])]
     pages = StatisticsPages([], definitions=definitions(confidence, alpha))
+    metric = resolve_metric("auto", reevaluations)
 
-    tests = pairwise(frame, alpha=alpha)
+    tests = pairwise(frame, metric, alpha=alpha, primary=primary, reevaluations=reevaluations)
     pages.tables["pairwise.csv"] = (
         tests,
-        "every pair of designers per environment: test, p, Holm-corrected p, A12, verdict (best reward)",
+        f"every pair of designers per environment: role (primary or exploratory), test, pairs and non-tied pairs, "
+        f"p, Holm-corrected p, A12, verdict ({METRIC_NAMES[metric]})",
     )
-    pages.sections.append(_significance(frame, tests, envs, alpha))
+    pages.sections.append(_significance(frame, tests, envs, alpha, primary, metric, named_before))
 
     ert = fixed_target(frame, optima=optima, confidence=confidence)
     ecdf = runtime_ecdf(frame, optima=optima)
@@ -80,19 +91,21 @@ def statistics_sections(
     budget = fixed_budget(frame, optima=optima, confidence=confidence)
     pages.tables["fixed_budget.csv"] = (
         budget,
-        "best-so-far reward of every designer at chosen budgets: median, bootstrap CI, quartiles, mean",
+        "best-so-far reward of every designer at chosen budgets: median, its order-statistic interval and that "
+        "interval's coverage, quartiles, mean",
     )
     pages.sections.append(
         Section(
             "Fixed budget: reward after a number of evaluations",
             [],
-            f"Best-so-far reward after the given number of evaluations: median over seeds [{confidence:.0%} bootstrap "
-            f"CI].",
-            tables=[_budget_table(budget, env, designers) for env in envs],
+            f"Best-so-far reward after the given number of evaluations: median over seeds [order-statistic interval "
+            f"of at least {confidence:.0%} where the seeds allow, else the seeds' range with its coverage].",
+            tables=[_budget_table(budget, env, designers, confidence) for env in envs],
         )
     )
     if len(envs) > 1:
-        pages.sections.append(_aggregate(frame, designers, envs, optima, confidence, pages.tables))
+        pages.sections.append(_aggregate(frame, designers, envs, optima, confidence, pages.tables, metric,
+                                         reevaluations))  # fmt: skip
     return pages
 
 
@@ -101,10 +114,21 @@ def _slug(name: str) -> str:
 
 
 # -- significance ---------------------------------------------------------------------------------
-def _significance(frame: pd.DataFrame, tests: pd.DataFrame, envs: list[str], alpha: float) -> Section:
+def _significance(
+    frame: pd.DataFrame,
+    tests: pd.DataFrame,
+    envs: list[str],
+    alpha: float,
+    primary: Primary | None,
+    metric: str,
+    named_before: bool,
+) -> Section:
     seeds = frame.groupby(["env", "designer"])["seed"].nunique()
-    comparisons = max(1, int(tests.groupby("env").size().max())) if len(tests) else 1
+    exploratory = tests[tests["role"] == "exploratory"]
+    comparisons = max(1, int(exploratory.groupby("env").size().max())) if len(exploratory) else 1
     paragraphs, tables = [], []
+    if primary is not None:
+        paragraphs.append(_primary_words(primary, tests, seeds, named_before))
     for env in envs:
         mine = tests[tests["env"] == env]
         fewest = int(seeds.loc[env].min())
@@ -112,20 +136,46 @@ def _significance(frame: pd.DataFrame, tests: pd.DataFrame, envs: list[str], alp
         if len(mine) == 0:
             paragraphs.append(f"Only one designer ran{where}: there is nothing to compare.")
             continue
+        others = mine[mine["role"] == "exploratory"]
         if fewest < 2:
-            paragraphs.append(_one_seed_words(where, len(mine), alpha))
-        else:
-            paragraphs.append(_verdict_words(mine, where, alpha, fewest))
-        tables.append(_pairwise_table(mine, env if len(envs) > 1 else "", alpha))
+            paragraphs.append(_one_seed_words(where, max(1, len(others)), alpha))
+        elif len(others):
+            paragraphs.append(_verdict_words(others, where, alpha, fewest, primary is not None))
+        tables.append(_pairwise_table(mine, env if len(envs) > 1 else "", alpha, metric))
     tables.append(_power_table(alpha, comparisons))
+    when = "named in the experiment before the run" if named_before else "named for this report, after the run"
+    named = (
+        f"The primary comparison ({primary.a} against {primary.b}, {when}) is tested alone at its own level; "
+        f"every other pair is exploratory: their p-values are corrected together for the number of pairs with Holm's "
+        f"method. "
+        if primary is not None
+        else "No primary comparison was named before the run, so every pair is exploratory: p-values are corrected "
+        "for the number of pairs with Holm's method. "
+    )
     intro = (
-        f"Per environment, every pair of designers is tested on the best reward of each run: Wilcoxon's signed-rank "
-        f"test on the per-seed "
-        f"differences when the runs are paired (same run, same seed), the Mann-Whitney U test otherwise; p-values are "
-        f"corrected for the "
-        f"number of pairs with Holm's method; the effect size is Vargha-Delaney's A12. Significance level {alpha:g}."
+        f"Per environment, pairs of designers are tested on the {METRIC_NAMES[metric]} of each run: Wilcoxon's "
+        f"signed-rank test on the per-seed differences when the runs are paired (same run, same seed), resting on "
+        f"the pairs whose two runs differ (non-tied), the Mann-Whitney U test otherwise; the effect size is "
+        f"Vargha-Delaney's A12. " + named + f"Significance level {alpha:g}."
     )
     return Section("Which differences are significant", [], intro, paragraphs=paragraphs, tables=tables)
+
+
+def _primary_words(primary: Primary, tests: pd.DataFrame, seeds: pd.Series, named_before: bool) -> str:
+    rows = tests[tests["role"] == "primary"]
+    needed = seeds_needed(primary.effect, alpha=primary.alpha, target_power=primary.power)
+    plan = (
+        f"Primary comparison: {primary.a} against {primary.b}, at {primary.alpha:g}, smallest effect of interest "
+        f"A12 = {primary.effect:g}, for which the power analysis asks {needed or 'more than 1000'} seeds "
+        f"({primary.power:.0%} power)"
+    )
+    if rows.empty:
+        return plan + ": not tested (one of the two designers has no runs in this table)."
+    r = rows.iloc[0]
+    has = r.pairs or min(r.n_a, r.n_b)
+    fewer = "planned" if named_before else "that"
+    short = f"; this run has {has}, fewer than {fewer}" if needed and has < needed else ""
+    return f"{plan}{short}. On the {METRIC_NAMES[r.metric]}: {r.verdict}."
 
 
 def _one_seed_words(where: str, pairs: int, alpha: float) -> str:
@@ -146,14 +196,15 @@ def _one_seed_words(where: str, pairs: int, alpha: float) -> str:
     )
 
 
-def _verdict_words(tests: pd.DataFrame, where: str, alpha: float, seeds: int) -> str:
+def _verdict_words(tests: pd.DataFrame, where: str, alpha: float, seeds: int, exploratory: bool) -> str:
     def pair(r) -> str:
         return f"{r.designer_a} vs {r.designer_b} (Holm p = {r.p_holm:.2g}, A12 = {r.a12:.2f})"
 
     significant = [r for r in tests.itertuples() if r.significant]
     other = [r for r in tests.itertuples() if not r.significant]
+    what = "exploratory pair(s)" if exploratory else "pair(s)"
     parts = [
-        f"With {seeds} seeds per designer{where}, at level {alpha:g} after Holm's correction over {len(tests)} pair(s):"
+        f"With {seeds} seeds per designer{where}, at level {alpha:g} after Holm's correction over {len(tests)} {what}:"
     ]
     if significant:
         wins = [
@@ -165,30 +216,43 @@ def _verdict_words(tests: pd.DataFrame, where: str, alpha: float, seeds: int) ->
         parts.append("significant: " + "; ".join(wins) + ".")
     if other:
         parts.append("not significant: " + "; ".join(pair(r) for r in other) + ".")
+    fewest = minimum_seeds(alpha / max(1, len(tests)))
+    if seeds < fewest:
+        parts.append(f"No outcome of {seeds} seeds could have been significant here: Holm's first step tests at "
+                     f"{alpha:g}/{len(tests)}, which needs at least {fewest} non-tied pairs.")  # fmt: skip
     return " ".join(parts)
 
 
-def _pairwise_table(tests: pd.DataFrame, env: str, alpha: float) -> Table:
-    headers = ["A", "B", "test", "median A - B", "p", "Holm p", "A12", "verdict"]
+def _test_cell(r) -> str:
+    if not r.pairs:
+        return f"{r.test} ({r.n_a} vs {r.n_b} runs)"
+    pairs = f"{r.pairs} pair{'s' if r.pairs > 1 else ''}"
+    return f"{r.test} ({pairs}" + (f", {r.untied} non-tied)" if r.untied != r.pairs else ", none tied)")
+
+
+def _pairwise_table(tests: pd.DataFrame, env: str, alpha: float, metric: str) -> Table:
+    headers = ["A", "B", "role", "test", "median A - B", "p", "Holm p", "A12", "verdict"]
     rows = [
         [
             r.designer_a,
             r.designer_b,
-            r.test + (f" ({r.pairs} pair{'s' if r.pairs > 1 else ''})" if r.pairs else f" ({r.n_a} vs {r.n_b} runs)"),
+            r.role + ("" if r.metric == metric else f" ({METRIC_NAMES[r.metric]})"),
+            _test_cell(r),
             number(r.difference),
             number(r.p, 2),
-            number(r.p_holm, 2),
+            "-" if r.role == "primary" else number(r.p_holm, 2),
             f"{r.a12:.2f}" + (f" ({r.magnitude})" if r.magnitude != "-" else ""),
             r.verdict,
         ]
         for r in tests.itertuples()
     ]
-    title = f"Pairwise comparisons{f' on {env}' if env else ''}: best reward"
+    title = f"Pairwise comparisons{f' on {env}' if env else ''}: {METRIC_NAMES[metric]}"
     return Table(
         title,
         headers,
         rows,
-        f"Two-sided tests; Holm's correction over the pairs of this environment; significant when Holm p < {alpha:g}. "
+        f"Two-sided tests. The primary comparison (if any) is tested alone at its level; exploratory pairs are "
+        f"significant when Holm p < {alpha:g} (Holm's correction over the exploratory pairs of this environment). "
         f"A12 > 0.5: A tends to score higher.",
     )
 
@@ -236,13 +300,13 @@ def _ert_cell(ert: float, low: float, high: float) -> str:
     return text.replace(NOT_REACHED, "inf")
 
 
-def _budget_table(budget: pd.DataFrame, env: str, designers: list[str]) -> Table:
+def _budget_table(budget: pd.DataFrame, env: str, designers: list[str], confidence: float) -> Table:
     mine = budget[budget["env"] == env]
     present = [d for d in designers if d in set(mine["designer"])]
     rows = []
     for b, g in mine.groupby("budget", sort=True):
         cells = {
-            r.designer: with_interval(r.median, r.ci_low, r.ci_high)
+            r.designer: with_interval(r.median, r.ci_low, r.ci_high, level=r.ci_level, confidence=confidence)
             + (f" ({r.runs} runs)" if r.runs < g["runs"].max() else "")
             for r in g.itertuples()
         }
@@ -258,10 +322,15 @@ def _aggregate(
     optima: Mapping[str, float] | None,
     confidence: float,
     tables: dict[str, tuple[pd.DataFrame, str]],
+    metric: str,
+    reevaluations: pd.DataFrame | None,
 ) -> Section:
-    scores = normalised_scores(frame, optima=optima)
+    scores = normalised_scores(frame, metric, optima=optima, reevaluations=reevaluations)
     iqm, profiles, poi = aggregate_scores(scores, confidence=confidence)
-    tables["normalised_scores.csv"] = (scores, "best reward of every run and its score normalised per environment")
+    tables["normalised_scores.csv"] = (
+        scores,
+        f"{METRIC_NAMES[metric]} of every run, its score normalised per environment, and the scores that count 0 and 1",
+    )
     tables["aggregate_iqm.csv"] = (
         iqm,
         "IQM of normalised scores over environments with its stratified-bootstrap interval",
@@ -309,11 +378,11 @@ def _aggregate(
         ),
     ]
     intro = (
-        f"Over the {len(envs)} environments ({', '.join(envs)}), with rliable's estimators. Each run's best reward is "
-        f"normalised per "
-        f"environment: 0 = the lowest of any run there, 1 = the highest (or the optimum when known and not reached). "
-        f"Intervals resample "
-        f"runs within each environment (stratified bootstrap)."
+        f"Over the {len(envs)} environments ({', '.join(envs)}), with rliable's estimators. Each run's "
+        f"{METRIC_NAMES[metric]} is normalised per environment as rliable normalises Atari scores: 0 = the median "
+        f"of the random designer's runs there (where it ran; else the lowest run), 1 = the environment's optimum "
+        f"(where known; else the best run): {normalisation_words(scores)}. Intervals resample runs within each "
+        f"environment (stratified bootstrap)."
     )
     return Section("Aggregate over environments", figures, intro, paragraphs=paragraphs, tables=[iqm_table, poi_table])
 
@@ -321,6 +390,18 @@ def _aggregate(
 def definitions(confidence: float, alpha: float) -> list[tuple[str, str]]:
     """What the statistics sections' numbers mean (added to the report's definitions)."""
     return [
+        (
+            "Primary and exploratory",
+            "an experiment may name one comparison before it runs (its primary comparison: two designers, a metric, a "
+            "level and the smallest effect of interest that set its seeds); it is tested alone at its level. Every "
+            "other pair is exploratory and Holm-corrected: read those as leads for the next experiment, not findings.",
+        ),
+        (
+            "Non-tied pairs",
+            "a paired test rests only on the seeds where the two runs differ (two designers that found the same best "
+            "body under one seed tie there and drop out); with n of them the exact signed-rank test's smallest "
+            "two-sided p is 2/2^n, so 5 cannot go below 0.0625.",
+        ),
         (
             "Paired and unpaired tests",
             "two designers' runs are paired when they come from the same run with the same seed (same seed: same "
@@ -363,13 +444,16 @@ def definitions(confidence: float, alpha: float) -> list[tuple[str, str]]:
         ),
         (
             "Fixed budget",
-            f"each run's best-so-far reward after n evaluations; median over seeds with a {confidence:.0%} "
-            f"percentile-bootstrap interval (a run that stopped at the optimum keeps it).",
+            f"each run's best-so-far reward after n evaluations; median over seeds with its order-statistic interval "
+            f"(coverage at least {confidence:.0%}, or stated where the seeds are too few; a run that stopped at the "
+            f"optimum keeps it).",
         ),
         (
             "Aggregate (several environments)",
             "rliable's interquartile mean (mean of the middle 50% of all normalised run scores), performance profiles "
             "(share of runs above a normalised score) and probability of improvement, with stratified-bootstrap "
-            "intervals (runs resampled within each environment).",
+            "intervals (runs resampled within each environment). Normalised score: (score - random's median) / "
+            "(optimum - random's median) per environment, the lowest run standing in for random where it did not "
+            "run and the best run for an unknown optimum.",
         ),
     ]

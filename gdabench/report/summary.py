@@ -1,7 +1,7 @@
 """Per-designer summary of a run, computed from the evaluations table alone.
 
-One row per (designer, env, controller): how good the best body is over seeds (median with a
-bootstrap confidence interval, and the spread), how many seeds reached a threshold (the
+One row per (designer, env, controller): how good the best body is over seeds (median with its
+exact order-statistic interval and that interval's coverage, and the spread), how many seeds reached a threshold (the
 environment's optimum unless another is chosen) and after how many evaluations, the mean
 best-so-far reward (area under the best-so-far curve per evaluation), and how long a run took.
 Runs that never reach the threshold are censored: they count as "not reached" in the median and
@@ -19,13 +19,12 @@ import pandas as pd
 from ..statuses import COUNTED, OK
 from .stats import (
     CONFIDENCE,
-    RESAMPLES,
     best_so_far_curve,
-    bootstrap_ci,
     censored,
     censored_median,
     first_reach,
     mean_best_so_far,
+    median_interval,
 )
 
 GROUP = ["designer", "env", "controller"]
@@ -77,14 +76,24 @@ def summarize(
     threshold: Threshold = None,
     *,
     confidence: float = CONFIDENCE,
-    resamples: int = RESAMPLES,
+    reevaluations: pd.DataFrame | None = None,
 ) -> pd.DataFrame:
     """Summary table, one row per (designer, env, controller), in the order designers appear.
 
-    ``*_ci_low`` / ``*_ci_high`` bound the median over seeds (percentile bootstrap at
-    ``confidence``); evaluations to the threshold are ``inf`` where censored runs decide.
+    With the run's ``reevaluations``, ``reevaluated_*`` columns give the median over seeds of the trials'
+    re-evaluated best (:mod:`.reevaluated`) and its interval (NaN for designers without re-evaluations).
+
+    ``*_ci_low`` / ``*_ci_high`` bound the median over seeds (exact order-statistic interval of at
+    least ``confidence`` where the seeds allow it); ``*_ci_level`` is that interval's coverage, below
+    ``confidence`` when there are too few seeds (5 seeds: 0.9375).  Evaluations to the threshold are
+    ``inf`` where censored runs decide.
     """
     runs = per_run(evaluations, threshold)
+    again = None
+    if reevaluations is not None and len(reevaluations):
+        from .reevaluated import trial_scores
+
+        again = trial_scores(evaluations, reevaluations)
     out = []
     for key, g in runs.groupby(GROUP, sort=False, dropna=False):
         target = threshold_of(threshold, key[1])
@@ -95,7 +104,7 @@ def summarize(
             **dict(zip(GROUP, key)),
             "seeds": len(g),
             "best_median": float(best.median()),
-            **_ci("best", best, confidence, resamples),
+            **_ci("best", best, confidence),
             "best_q25": float(best.quantile(0.25)),
             "best_q75": float(best.quantile(0.75)),
             "best_min": float(best.min()),
@@ -104,18 +113,22 @@ def summarize(
             "threshold": target if target is not None else math.nan,
             "seeds_reached": int(g["evals_to_threshold"].notna().sum()) if target is not None else 0,
             "evals_to_threshold_median": censored_median(g["evals_to_threshold"]) if target is not None else math.nan,
-            **_ci("evals_to_threshold", to_threshold if target is not None else [], confidence, resamples),
+            **_ci("evals_to_threshold", to_threshold if target is not None else [], confidence),
             "mean_best_so_far_median": float(auc.median()),
-            **_ci("mean_best_so_far", auc, confidence, resamples),
+            **_ci("mean_best_so_far", auc, confidence),
             "wall_seconds_median": float(g["wall_seconds"].median()),
         }
+        if again is not None:
+            mine = again[(again["designer"] == key[0]) & (again["env"] == key[1])]["reevaluated_best"]
+            row.update(reevaluated_median=float(mine.median()) if len(mine) else math.nan,
+                       **_ci("reevaluated", mine, confidence))  # fmt: skip
         out.append(row)
     return pd.DataFrame(out)
 
 
-def _ci(name: str, values, confidence: float, resamples: int) -> dict[str, float]:
-    low, high = bootstrap_ci(values, confidence=confidence, resamples=resamples)
-    return {f"{name}_ci_low": low, f"{name}_ci_high": high}
+def _ci(name: str, values, confidence: float) -> dict[str, float]:
+    interval = median_interval(values, confidence)
+    return {f"{name}_ci_low": interval.low, f"{name}_ci_high": interval.high, f"{name}_ci_level": interval.level}
 
 
 #: statuses of rows whose body was not scored

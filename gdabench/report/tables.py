@@ -23,11 +23,24 @@ def number(value: float, digits: int = 4) -> str:
     return f"{value:.{digits}g}"
 
 
-def with_interval(median: float, low: float, high: float, digits: int = 4) -> str:
-    """``median [low, high]``, or just the median when the interval is a single point."""
+def with_interval(
+    median: float, low: float, high: float, digits: int = 4, level: float | None = None, confidence: float = CONFIDENCE
+) -> str:
+    """``median [low, high]``, or just the median when the interval is a single point; an interval whose
+    coverage ``level`` falls short of ``confidence`` (too few seeds) says its coverage: ``[low, high] 94%``."""
     if low == high == median or (math.isnan(low) and math.isnan(high)):
         return number(median, digits)
-    return f"{number(median, digits)} [{number(low, digits)}, {number(high, digits)}]"
+    short = level is not None and not math.isnan(level) and level < confidence - 1e-9
+    return f"{number(median, digits)} [{number(low, digits)}, {number(high, digits)}]" + (
+        f" {level:.1%}" if short else ""
+    )
+
+
+def interval_cell(row: pd.Series | dict, name: str, confidence: float, digits: int = 4) -> str:
+    """A summary row's ``<name>_median`` with its interval and, where it falls short, its coverage."""
+    level = row.get(f"{name}_ci_level")
+    return with_interval(row[f"{name}_median"], row[f"{name}_ci_low"], row[f"{name}_ci_high"], digits,
+                         None if level is None else float(level), confidence)  # fmt: skip
 
 
 def has_threshold(summary: pd.DataFrame) -> bool:
@@ -46,7 +59,8 @@ def summary_cells(
     if compact:
         return _compact_cells(summary, confidence)
     ci = f"median [{confidence:.0%} CI]"
-    headers = ["designer", "env", "seeds", f"best reward, {ci}"]
+    again = "reevaluated_median" in summary.columns
+    headers = ["designer", "env", "seeds", f"best reward, {ci}", *([f"re-evaluated best, {ci}"] if again else [])]
     threshold = has_threshold(summary)
     targets = summary["threshold"].dropna().unique()
     per_env = threshold and len(targets) > 1  # a suite: each environment has its own threshold
@@ -61,21 +75,17 @@ def summary_cells(
             str(r["designer"]),
             env,
             str(r["seeds"]),
-            with_interval(r["best_median"], r["best_ci_low"], r["best_ci_high"]),
+            interval_cell(r, "best", confidence),
+            *([interval_cell(r, "reevaluated", confidence)] if again else []),
         ]
         if threshold:
             cells += [
                 *([number(r["threshold"])] if per_env else []),
                 f"{r['seeds_reached']}/{r['seeds']}",
-                with_interval(
-                    r["evals_to_threshold_median"],
-                    r["evals_to_threshold_ci_low"],
-                    r["evals_to_threshold_ci_high"],
-                    digits=6,
-                ),
+                interval_cell(r, "evals_to_threshold", confidence, digits=6),
             ]
         cells += [
-            with_interval(r["mean_best_so_far_median"], r["mean_best_so_far_ci_low"], r["mean_best_so_far_ci_high"]),
+            interval_cell(r, "mean_best_so_far", confidence),
             f"{r['wall_seconds_median']:.1f}",
         ]
         rows.append(cells)
@@ -87,7 +97,9 @@ def _compact_cells(summary: pd.DataFrame, confidence: float) -> tuple[list[str],
     threshold = has_threshold(summary)
     targets = summary["threshold"].dropna().unique()
     target = number(float(targets[0])) if len(targets) == 1 else "target"
+    again = "reevaluated_median" in summary.columns
     headers = ["designer", *(["env"] if several else []), f"best [{confidence:.0%} CI]"]
+    headers += ["re-evaluated"] if again else []
     headers += [f"hit {target}", f"evals to {target}"] if threshold else []
     headers += ["seconds"]
     rows = []
@@ -96,7 +108,9 @@ def _compact_cells(summary: pd.DataFrame, confidence: float) -> tuple[list[str],
             str(r["designer"]),
             *([r["env"] + (f" / {r['controller']}" if r["controller"] else "")] if several else []),
         ]
-        cells.append(with_interval(r["best_median"], r["best_ci_low"], r["best_ci_high"]))
+        cells.append(interval_cell(r, "best", confidence))
+        if again:
+            cells.append(number(r["reevaluated_median"]))
         if threshold:
             cells += [f"{r['seeds_reached']}/{r['seeds']}", number(r["evals_to_threshold_median"], 6)]
         cells.append(f"{r['wall_seconds_median']:.1f}")

@@ -37,6 +37,10 @@ class RunListener:
     def trial_finished(self, spec: TrialSpec, error: str | None) -> None:
         """A trial ended: its rows are merged (``error`` None) or it failed with ``error``."""
 
+    def reevaluated(self, title: str, done: int, total: int) -> None:
+        """After every trial: the final best bodies of trial ``title`` (the ``done``-th of ``total``) were
+        re-evaluated (:mod:`gdabench.running.reevaluation`)."""
+
     def run_finished(self, run_dir: Path, status: str, summary: pd.DataFrame | None) -> None:
         """The run ended: ``complete`` (with its summary table), ``failed`` (with the summary when every trial
         ran but one measured nothing: its every evaluation failed) or ``interrupted``."""
@@ -67,6 +71,10 @@ class Listeners(RunListener):
     def trial_finished(self, *args: Any) -> None:
         for listener in self.listeners:
             listener.trial_finished(*args)
+
+    def reevaluated(self, *args: Any) -> None:
+        for listener in self.listeners:
+            listener.reevaluated(*args)
 
     def run_finished(self, *args: Any) -> None:
         for listener in self.listeners:

@@ -226,6 +226,18 @@ class Plan:
             self.uncacheable[env.label] = f"a parameter of {env.label!r} or its controller is not a plain value ({exc})"
             return None
 
+    def check_versions(self, run_path: Path, meta: Mapping[str, Any], doing: str) -> None:
+        """A run's rows may not mix dynamics: every environment must still build the version the run recorded
+        (``doing``: what would mix them, e.g. "resuming")."""
+        recorded = meta.get("envs") or {}
+        for env in self.envs:
+            was = (recorded.get(env.label) or {}).get("version")
+            if was is not None and was != env.version:
+                raise ConfigError(
+                    f"{run_path}: its rows were scored by {was}, but '{env.label}' now builds {env.version}; "
+                    f"{doing} would mix the two in one table (start a new run)"
+                )
+
     def scorers(self, env_label: str | None = None) -> tuple[Environment, Controller | None]:
         """The environment (the first, or the one labelled ``env_label``) and controller, as trials build them."""
         env = self.envs[0] if env_label is None else next((e for e in self.envs if e.label == env_label), None)

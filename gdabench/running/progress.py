@@ -156,3 +156,12 @@ class ProgressDisplay(RunListener):
             self.progress.remove_task(task)
         if error is not None and not self.quiet:  # the run's last line names failed trials too
             self.progress.console.print(escape(f"trial {spec.title} failed: {error}"), style="red", highlight=False)
+
+    def reevaluated(self, title: str, done: int, total: int) -> None:
+        """Re-evaluation after the trials: one bar over the trials whose best bodies were trained again."""
+        if not self.progress.live.is_started:
+            self.progress.start()
+        line = self.lines.get(-1)
+        if line is None:
+            line = self.lines[-1] = self.progress.add_task("re-evaluating the best bodies", total=total)
+        self.progress.update(line, completed=done, description=escape(f"re-evaluated the best bodies of {title}"))

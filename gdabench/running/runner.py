@@ -35,6 +35,7 @@ from .events import Listeners, PluginHooks, RunListener
 from .hosts import BodiesDone, InProcess, LocalProcesses, TrialHost, TrialWorkers
 from .outcomes import RunOutcomes
 from .plan import Plan
+from .reevaluation import load as load_reevaluations, reevaluate_run
 from .trial import GenerationResult
 from .trial_spec import TrialSpec
 
@@ -56,18 +57,6 @@ def _new_meta(plan: Plan, reg: Registry, command: Sequence[str] | None, executio
         "versions": versions(reg.distributions()),
         "platform": platform_info(),
     }
-
-
-def _check_versions(run: RunDirectory, meta: dict[str, Any], plan: Plan) -> None:
-    """A resume may not mix dynamics: every environment must still build the version the run recorded."""
-    recorded = meta.get("envs") or {}
-    for env in plan.envs:
-        was = (recorded.get(env.label) or {}).get("version")
-        if was is not None and was != env.version:
-            raise ConfigError(
-                f"{run.path}: its rows were scored by {was}, but '{env.label}' now builds {env.version}; "
-                "resuming would mix the two in one table (start a new run)"
-            )
 
 
 def compare(
@@ -107,7 +96,7 @@ def compare(
         if execution.timeout is None and (meta.get("execution") or {}).get("timeout"):
             execution = Execution(**{**execution.to_json(), "timeout": meta["execution"]["timeout"]})
         plan = Plan.resolve(experiment, reg)
-        _check_versions(run, meta, plan)
+        plan.check_versions(run.path, meta, "resuming")
         run.lock()
         added = {"added_seeds": list(experiment.seeds[len(stored.seeds):])} if experiment != stored else {}
         run.update_meta(status="running", config=experiment.to_json(), error=None,
@@ -132,8 +121,16 @@ def compare(
                     ]
                 )
                 raise TrialError(_failure_line(plan, failures))
+            how = plan.experiment.reevaluate
+            if how is not None:
+                reevaluated = time.monotonic()
+                reevaluate_run(run, plan, how, execution, listener.reevaluated)
+                done = float((run.meta.get("reevaluated") or {}).get("wall_seconds", 0.0))
+                run.update_meta(reevaluated={"top": how.top, "seeds": how.seeds,
+                                             "wall_seconds": round(done + time.monotonic() - reevaluated, 1)})
             frame = run.load_evaluations()
-            summary = summarize(frame, {e.label: e.optimum for e in plan.envs})
+            optima = {e.label: e.optimum for e in plan.envs}
+            summary = summarize(frame, optima, reevaluations=load_reevaluations(run.path))
             summary.to_csv(run.path / SUMMARY, index=False)
             measured_nothing = nothing_measured(failure_counts(frame))  # every trial ran, but some measured nothing
             status = "complete" if measured_nothing is None else "failed"
