@@ -509,7 +509,9 @@ def evogym_task_misses(root: Path) -> str:
         unmeasured = [t for t, g in goals.items() if g[key] is None]
         said = f"**{len(missed)} of {len(goals)} tasks miss it**: " + ", ".join(f"`{t}`" for t in missed) if missed \
             else f"every task {'measured ' if unmeasured else ''}meets it"
-        if unmeasured:
+        if len(unmeasured) == len(goals):
+            said = "not measured"
+        elif unmeasured:
             said += f"; not measured on {len(unmeasured)}: " + ", ".join(f"`{t}`" for t in unmeasured)
         lines.append(f"* {text}: {said}")
     missed = {t: [k for k, v in g.items() if v is False] for t, g in goals.items()}
