@@ -481,7 +481,7 @@ def _assemble(w: World, robot: Object) -> dict[str, np.ndarray]:
         "group_start": group_start,
         "group_pairs": group_pairs,
         "rigid_edges": renumber[rigid.reshape(-1, 4)],
-        "incidence": (renumber[inc], inc_start, inc_n_a),  # type: ignore[dict-item]
+        "incidence": (renumber[inc], inc_start, inc_n_a),
         "live": live,
         "far": far,
         "init_pos": np.concatenate([p.obj.pos for p in parts]),

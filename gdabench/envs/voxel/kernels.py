@@ -411,7 +411,7 @@ def _substep(n, ne, ea, rest0, k, esurf, fixed, goal, ns, sown, sbp, sbe, pairs,
             uy = dy * under
         corr[j, 0] = (ox + ux) * 0.8
         corr[j, 1] = (oy + uy) * 0.8
-    for j in range(ne_move):  # (fixed points are not moved here; the rigid pass below does not ask, as in Evolution Gym)
+    for j in range(ne_move):  # (fixed points are not moved here; the rigid pass below does not ask, as Evolution Gym)
         if not fixed[ea[j, 0]]:
             pos[ea[j, 0], 0] -= corr[j, 0]
             pos[ea[j, 0], 1] -= corr[j, 1]
