@@ -18,6 +18,7 @@ for the probability of improvement, after ``np.random.seed(0)``).  About 10 minu
 
 from __future__ import annotations
 
+import argparse
 import json
 
 import numpy as np
@@ -34,6 +35,7 @@ POI_REPS = 20_000
 
 
 def main() -> None:
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()  # --help without rliable
     from rliable import library, metrics
 
     scores = {"X": np.array(X), "Y": np.array(Y), "A": np.array(A), "B": np.array(B), "C": np.array(C)}
