@@ -35,8 +35,7 @@ def run_arm(arm: str, names: list[str], timesteps: int, minutes: float) -> dict[
     from gdabench.controllers.ppo import PPOConfig
     from gdabench.controllers.ppo.train import train
     from gdabench.envs.batched import ArrayBodies
-    from gdabench.envs.voxel import engine
-    from gdabench.envs.voxel import MAX_EPISODE_STEPS
+    from gdabench.envs.voxel import MAX_EPISODE_STEPS, engine
     from gdabench.envs.voxel.batch import TaskBatch
 
     device, schedule = arm.split(":")

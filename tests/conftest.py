@@ -32,7 +32,18 @@ def faulty_site(tmp_path_factory) -> Path:
     src = tmp_path_factory.mktemp("src") / "faulty_plugin"
     shutil.copytree(FIXTURE, src)
     site = tmp_path_factory.mktemp("site")
-    cmd = [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation", "--target", str(site), str(src)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "pip",
+        "install",
+        "--quiet",
+        "--no-deps",
+        "--no-build-isolation",
+        "--target",
+        str(site),
+        str(src),
+    ]
     subprocess.run(cmd, check=True, capture_output=True)
     return site
 

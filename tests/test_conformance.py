@@ -14,7 +14,9 @@ from gdabench.envs.simple import SumOfVoxels
 from gdabench.testing import ConformanceError, check_designer, check_environment
 
 
-@pytest.mark.parametrize("factory, params", [(GeneticAlgorithm, {}), (GeneticAlgorithm, {"survivors": 3}), (RandomSearch, {})])
+@pytest.mark.parametrize(
+    "factory, params", [(GeneticAlgorithm, {}), (GeneticAlgorithm, {"survivors": 3}), (RandomSearch, {})]
+)
 def test_builtin_designers_conform(factory, params):
     check_designer(factory, params=params)
 
@@ -54,8 +56,13 @@ class Unpicklable(RandomSearch):
 
 @pytest.mark.parametrize(
     "factory, fragment",
-    [(Unseeded, "same seed gave different bodies"), (Repeater, "again"), (Forgetful, "restored from pickle continued differently"),
-     (Crashes, "generation 0: tell() raised KeyError: 'best'"), (Unpicklable, "pickling the designer raised TypeError: cannot pickle")],
+    [
+        (Unseeded, "same seed gave different bodies"),
+        (Repeater, "again"),
+        (Forgetful, "restored from pickle continued differently"),
+        (Crashes, "generation 0: tell() raised KeyError: 'best'"),
+        (Unpicklable, "pickling the designer raised TypeError: cannot pickle"),
+    ],
 )
 def test_broken_designers_are_caught(factory, fragment):
     with pytest.raises(ConformanceError, match=re.escape(fragment)):

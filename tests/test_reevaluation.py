@@ -80,7 +80,9 @@ def test_top_bodies_are_distinct_and_best_first():
 
 
 def test_on_by_default_with_a_controller_and_off_without(tmp_path):
-    assert build_run({"designers": "ga,gda", "env": "walker", "controller": "ppo"}).experiment.reevaluate == Reevaluation()
+    assert (
+        build_run({"designers": "ga,gda", "env": "walker", "controller": "ppo"}).experiment.reevaluate == Reevaluation()
+    )
     assert build_run({"designers": "ga,gda", "env": "simple"}).experiment.reevaluate is None
     off = build_run({"designers": "ga", "env": "walker", "controller": "ppo", "reevaluate": "off"}).experiment
     assert off.reevaluate is None

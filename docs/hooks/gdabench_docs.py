@@ -70,7 +70,7 @@ EXTRAS = {
     "tensorboard": "`--log tensorboard`: each generation's figures as TensorBoard event files",
     "bench": "`benchmarks/ppo_vs_sb3.py`, which compares the `ppo` controller with stable-baselines3's PPO",
     "docs": "building this site: `mkdocs build --strict`",
-    "lint": "`ruff check gdabench` and `mypy`, as CI runs them ([Development](development.md#lint-and-types))",
+    "lint": "`ruff check gdabench tests benchmarks plugins` and `mypy`, as CI runs them ([Development](development.md#lint-and-types))",
 }
 
 #: ``<!-- gdabench:NAME -->`` or ``<!-- gdabench:NAME ARGUMENT -->``
