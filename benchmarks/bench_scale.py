@@ -33,9 +33,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))  # cpu_burn, for the dr
 
 from gdabench import EnvironmentSpec, hookimpl
 from gdabench.body import random_body
-from gdabench.config import PluginChoice, parse_params
 from gdabench.execution import OK, EvalTask, Executor, SerialExecutor
 from gdabench.execution.pool import ProcessExecutor
+from gdabench.experiment.config import PluginChoice, parse_params
 from gdabench.plugins import Registry
 from gdabench.specs import Factory
 

@@ -61,9 +61,9 @@ def _one_core() -> None:
 
 
 def run_lockstep(names: list[str], timesteps: int, seed: int) -> dict[str, Any]:
+    from gdabench.batched import ArrayBodies
     from gdabench.controllers.ppo import PPOConfig
     from gdabench.controllers.ppo.train import train
-    from gdabench.envs.batched import ArrayBodies
     from gdabench.envs.voxel import engine
     from gdabench.envs.voxel.batch import TaskBatch
 
@@ -84,10 +84,10 @@ def run_lockstep(names: list[str], timesteps: int, seed: int) -> dict[str, Any]:
 def run_pymunk(name: str, timesteps: int, seed: int) -> dict[str, Any]:
     import functools
 
+    from gdabench.batched import GymBodies
     from gdabench.body import as_body
     from gdabench.controllers.ppo import PPOConfig
     from gdabench.controllers.ppo.train import train
-    from gdabench.envs.batched import GymBodies
     from gdabench.envs.walker.env import make_walker
 
     make_env = functools.partial(make_walker, as_body(name), "pymunk")

@@ -18,8 +18,8 @@ import sys
 
 import pandas as pd
 
-from gdabench.report.summary import summarize
 from gdabench.results import RunDirectory
+from gdabench.stats.summary import summarize
 
 
 def finished_rows(run: RunDirectory) -> pd.DataFrame:

@@ -25,11 +25,11 @@ import pandas as pd
 from suite_runs import ensure_runs, run_dirs, stopped
 
 from gdabench import Experiment, PluginChoice, RunDirectory
-from gdabench.config import parse_seeds
 from gdabench.errors import GdabenchError
+from gdabench.experiment.config import parse_seeds
+from gdabench.experiment.plan import Plan, file_name
 from gdabench.plugins import registry
-from gdabench.report.summary import summarize, thresholds
-from gdabench.running.plan import Plan, file_name
+from gdabench.stats.summary import summarize, thresholds
 
 
 def table_rows(designers: list[list[Path]], envs: list[PluginChoice]) -> pd.DataFrame:

@@ -44,9 +44,9 @@ def run_before(body: str, timesteps: int, seed: int) -> list[float]:
 def run_lockstep(pairs: list[tuple[str, int]], timesteps: int) -> list[list[float]]:
     import torch
 
+    from gdabench.batched import ArrayBodies
     from gdabench.controllers.ppo import PPOConfig
     from gdabench.controllers.ppo.train import train
-    from gdabench.envs.batched import ArrayBodies
     from gdabench.envs.voxel import MAX_EPISODE_STEPS, engine
     from gdabench.envs.voxel.batch import TaskBatch
 

@@ -28,9 +28,9 @@ SCHEDULES = {
 def train_schedule(names: list[str], seeds: list[int], timesteps: int, schedule: dict) -> list[list[float]]:
     import torch
 
+    from gdabench.batched import ArrayBodies
     from gdabench.controllers.ppo import PPOConfig
     from gdabench.controllers.ppo.train import train
-    from gdabench.envs.batched import ArrayBodies
     from gdabench.envs.voxel import MAX_EPISODE_STEPS, engine
     from gdabench.envs.voxel.batch import TaskBatch
 

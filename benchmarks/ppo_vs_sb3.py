@@ -70,8 +70,8 @@ class _SB3Policy:
 def _evaluate(policy: Any, make_env: Any, episodes: int, seed: int) -> dict[str, float]:
     import torch
 
+    from gdabench.batched import GymBodies
     from gdabench.controllers.ppo.evaluation import evaluate_policies
-    from gdabench.envs.batched import GymBodies
 
     def play(generator: Any) -> float:
         [[score]] = evaluate_policies(
@@ -103,10 +103,10 @@ def run_one(side: str, body: str, timesteps: int, seed: int, episodes: int) -> d
         out = {"steps_per_s": steps / wall, "steps_per_s_cpu": steps / cpu}
         policy: Any = _SB3Policy(model, make_env().observation_space.shape[0])
     else:
+        from gdabench.batched import GymBodies
         from gdabench.controllers.ppo import PPOConfig
         from gdabench.controllers.ppo.networks import Stacked
         from gdabench.controllers.ppo.train import train
-        from gdabench.envs.batched import GymBodies
 
         config = PPOConfig(timesteps=timesteps, eval_interval=10 * timesteps)  # evaluation only at the end
         [result] = train(config, lambda n: GymBodies([make_env], n), [seed], device=torch.device("cpu"))

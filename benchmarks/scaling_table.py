@@ -47,12 +47,12 @@ from suite_runs import ensure_runs, run_dirs, stopped
 
 from gdabench import Experiment, PluginChoice, RunDirectory
 from gdabench.body import parse_shape
-from gdabench.config import parse_seeds
 from gdabench.errors import ConfigError, GdabenchError
 from gdabench.execution.options import Execution
+from gdabench.experiment.config import parse_seeds
+from gdabench.experiment.plan import Plan, file_name
 from gdabench.report.pairwise import a12, holm, magnitude, test_pair
-from gdabench.report.summary import per_run, thresholds
-from gdabench.running.plan import Plan, file_name
+from gdabench.stats.summary import per_run, thresholds
 
 DEFAULT_ENVS = "target,nk[k=4]"
 DEFAULT_SIZES = "5x5,8x8,12x12"

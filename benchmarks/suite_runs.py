@@ -13,9 +13,9 @@ from dataclasses import replace
 from pathlib import Path
 
 from gdabench import Experiment, RunDirectory
-from gdabench.config import format_seeds
 from gdabench.errors import ConfigError, GdabenchError, RunFailure, Terminated
 from gdabench.execution.options import Execution
+from gdabench.experiment.config import format_seeds
 from gdabench.running.runner import compare
 
 

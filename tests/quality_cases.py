@@ -30,8 +30,8 @@ import numpy as np
 import pandas as pd
 
 from gdabench import Experiment, PluginChoice
-from gdabench.report.stats import best_so_far_curve
 from gdabench.running.runner import compare
+from gdabench.stats.core import best_so_far_curve
 
 EXPECTATIONS = Path(__file__).parent / "expectations"
 

@@ -18,7 +18,6 @@ from gdabench.errors import ConfigError
 from gdabench.report import aggregate as agg
 from gdabench.report.build import write_report
 from gdabench.report.pairwise import a12, holm, magnitude, pairwise
-from gdabench.report.power import critical_value, minimum_seeds, noether, power, seeds_needed
 from gdabench.report.runtimes import (
     default_targets,
     expected_runtime,
@@ -30,6 +29,7 @@ from gdabench.report.runtimes import (
     runtime_ecdf,
 )
 from gdabench.results import RunDirectory
+from gdabench.stats.power import critical_value, minimum_seeds, noether, power, seeds_needed
 
 
 # -- runtimes --------------------------------------------------------------------------------------

@@ -9,8 +9,8 @@ import pytest
 from typer.testing import CliRunner
 
 from gdabench.cli import app
-from gdabench.config import parse_seeds
 from gdabench.errors import ConfigError
+from gdabench.experiment.config import parse_seeds
 
 runner = CliRunner()
 
@@ -342,7 +342,7 @@ def test_ppo_counts_have_an_upper_bound_and_stay_integers(tmp_path):
         invoke("compare", "-d", "ga", "--env", "walker", "-c", "ppo[timesteps=1e99]", "--out", str(tmp_path / "a"))
     )
     assert "ppo: timesteps must be an integer from 1 to 1,000,000,000, got 1e+99" in line
-    from gdabench.config import parse_value
+    from gdabench.experiment.config import parse_value
 
     assert parse_value("1e5") == 100000 and isinstance(parse_value("1e5"), int)  # stored as 100000, not 100000.0
     assert isinstance(parse_value("1.0"), float) and isinstance(parse_value("2.5e-4"), float)

@@ -16,7 +16,6 @@ from typer.testing import CliRunner
 from gdabench import hookimpl
 from gdabench.body import Body, random_body
 from gdabench.cli import app
-from gdabench.config import Experiment, PluginChoice
 from gdabench.designer import Designer
 from gdabench.designers.cppn import CppnNeat
 from gdabench.designers.cppn.config import load_config, shipped_config_text
@@ -24,6 +23,7 @@ from gdabench.designers.cppn.painting import cppn_voxels
 from gdabench.envs.simple import SumOfVoxels
 from gdabench.errors import ConfigError
 from gdabench.execution import Execution
+from gdabench.experiment.config import Experiment, PluginChoice
 from gdabench.plugins import Registry
 from gdabench.running.runner import compare
 from gdabench.specs import DesignerSpec

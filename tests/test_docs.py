@@ -60,9 +60,9 @@ def test_the_walker_reference_page_shows_the_committed_runs_own_figures():
     (a part of the run committed without its report made again fails here), and the run walker.toml's."""
     import pandas as pd
 
-    from gdabench.experiment_build import build_run
-    from gdabench.report.stats import generation_rewards
+    from gdabench.experiment.build import build_run
     from gdabench.results import RunDirectory
+    from gdabench.stats.core import generation_rewards
 
     page = (ROOT / "docs" / "benchmarks" / "reference-walker.md").read_text()
     assert "<!-- gdabench:thesis-walker -->" in page and "<!-- gdabench:reference-summary walker -->" in page
@@ -116,9 +116,8 @@ def test_the_thesis_budget_table_is_the_committed_rows_against_the_authors():
 
 def test_the_walker_pages_reevaluation_is_the_runs():
     """Raw against re-evaluated best on the walker page, from the committed re-evaluations (once committed)."""
-    from gdabench.report.reevaluated import trial_scores
-    from gdabench.results import read_parquet
-    from gdabench.running.reevaluation import load
+    from gdabench.results import load_reevaluations as load, read_parquet
+    from gdabench.stats.reevaluated import trial_scores
 
     hooks = docs_hooks()
     again = load(WALKER_RUN)
@@ -135,8 +134,8 @@ def test_the_walker_pages_reevaluation_is_the_runs():
 def test_the_walker_pages_measures_are_the_runs():
     """Evaluations to a reward and mean best-so-far on the walker page, from the committed rows."""
     hooks = docs_hooks()
-    from gdabench.report.summary import per_run
     from gdabench.results import read_parquet
+    from gdabench.stats.summary import per_run
 
     rows = read_parquet(WALKER_RUN / "evaluations.parquet")
     table = hooks.walker_measures(ROOT).splitlines()
@@ -286,7 +285,7 @@ def test_the_thesis_variants_are_set_beside_their_designers_seed_by_seed():
 def test_the_committed_run_of_the_thesis_variants_is_walker_thesis_toml_beside_the_walker_run():
     """The run of the thesis's variants is experiments/walker-thesis.toml's, at the walker run's controller,
     population and budget, and the page shows the best reward of each of its finished trials."""
-    from gdabench.experiment_build import build_run
+    from gdabench.experiment.build import build_run
     from gdabench.results import RunDirectory
 
     hooks = docs_hooks()

@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 
 from gdabench import hookimpl
 from gdabench.cli import app
-from gdabench.config import Experiment, PluginChoice
+from gdabench.experiment.config import Experiment, PluginChoice
 from gdabench.plugins import Registry
 from gdabench.running.runner import compare
 
@@ -72,7 +72,7 @@ def test_the_command_line_overrides_the_file(tmp_path):
 
 
 def test_an_option_is_as_given_else_from_the_file_else_the_default(tmp_path):
-    from gdabench.experiment_build import DEFAULTS, build_run
+    from gdabench.experiment.build import DEFAULTS, build_run
 
     config = tmp_path / "exp.toml"
     config.write_text('designers = ["ga"]\nbudget = 500\n[execution]\nworkers = 2\n')
@@ -83,7 +83,7 @@ def test_an_option_is_as_given_else_from_the_file_else_the_default(tmp_path):
 
 
 def test_options_mean_the_same_as_text_and_as_python_values():
-    from gdabench.experiment_build import build_run
+    from gdabench.experiment.build import build_run
 
     text = build_run({"designers": "ga,random", "env": "nk[k=4]", "seeds": "0..2", "shape": "4x6"}).experiment
     values = build_run({"designers": [PluginChoice("ga"), "random"], "env": PluginChoice.parse("nk[k=4]"),
@@ -262,9 +262,9 @@ def test_the_report_of_a_suite_has_a_page_per_environment_and_one_across_them(tm
     "path", sorted((Path(__file__).parent.parent / "experiments").glob("*.toml")), ids=lambda p: p.name
 )
 def test_every_committed_experiment_resolves_into_a_plan(path):
-    from gdabench.experiment_build import build_run
+    from gdabench.experiment.build import build_run
+    from gdabench.experiment.plan import Plan
     from gdabench.plugins import registry
-    from gdabench.running.plan import Plan
 
     experiment = build_run({"config": path}).experiment
     plan = Plan.resolve(experiment, registry())
@@ -272,7 +272,7 @@ def test_every_committed_experiment_resolves_into_a_plan(path):
 
 
 def test_the_walker_experiment_is_the_reference_co_design_and_its_budget_per_body_can_be_overridden():
-    from gdabench.experiment_build import build_run
+    from gdabench.experiment.build import build_run
 
     path = Path(__file__).parent.parent / "experiments" / "walker.toml"
     faithful = build_run({"config": path}).experiment

@@ -18,6 +18,7 @@ import pytest
 import torch
 from typer.testing import CliRunner
 
+from gdabench.batched import ArrayBodies, GymBodies
 from gdabench.body import as_body
 from gdabench.cli import app
 from gdabench.controllers.ppo import PPO, PPOConfig, replay
@@ -25,7 +26,6 @@ from gdabench.controllers.ppo.evaluation import episode_score
 from gdabench.controllers.ppo.policy_file import META_FILE, WEIGHTS_FILE
 from gdabench.controllers.ppo.train import train
 from gdabench.controllers.ppo.update import LockstepUpdate
-from gdabench.envs.batched import ArrayBodies, GymBodies
 from gdabench.envs.voxel import engine
 from gdabench.envs.voxel.batch import TaskBatch
 from gdabench.envs.walker.env import Walker, make_walker

@@ -9,12 +9,12 @@ from stat_tables import table
 from typer.testing import CliRunner
 
 from gdabench.cli import app
-from gdabench.config import Experiment, Primary
 from gdabench.errors import ConfigError
-from gdabench.experiment_build import build_run
+from gdabench.experiment.build import build_run, significance_warnings
+from gdabench.experiment.config import Experiment, Primary
 from gdabench.report.build import write_report
 from gdabench.report.pairwise import holm, pairwise
-from gdabench.report.power import seeds_needed, significance_warnings
+from gdabench.stats.power import seeds_needed
 
 #: per seed, the best reward of three designers: a beats b on 6 of 7 seeds (exact p = 0.03125 alone)
 A = [5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 2.0]

@@ -21,8 +21,8 @@ from processes import cli, default_sigint, error_lines, table
 from typer.testing import CliRunner
 
 from gdabench.cli import app
+from gdabench.faults import POINTS
 from gdabench.results import RunDirectory
-from gdabench.running.faults import POINTS
 
 ARGS = [
     "compare",

@@ -27,16 +27,16 @@ from gdabench.report import plots
 from gdabench.report.bodies import COLOURS, body_image
 from gdabench.report.build import write_report
 from gdabench.report.diversity import body_matrix, categorize, diversity
-from gdabench.report.stats import (
+from gdabench.running.events import RunListener
+from gdabench.running.runner import compare
+from gdabench.seeding import evaluation_seed
+from gdabench.stats.core import (
     best_so_far_curve,
     censored_median,
     generation_rewards,
     median_interval,
     order_statistic_ranks,
 )
-from gdabench.running.events import RunListener
-from gdabench.running.runner import compare
-from gdabench.seeding import evaluation_seed
 
 DESIGNERS = ("ga", "random")
 SEEDS = (0, 1)
@@ -501,7 +501,7 @@ def test_run_where_every_evaluation_failed(tmp_path):
 def test_a_run_of_one_generation_draws_whole_generations_and_says_what_is_missing(tmp_path):
     from gdabench.report import plots
     from gdabench.report.diversity import diversity
-    from gdabench.report.stats import generation_rewards
+    from gdabench.stats.core import generation_rewards
 
     exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), envs=PluginChoice("simple"), budget=25)
     frame = compare(exp, tmp_path / "run").load_evaluations()

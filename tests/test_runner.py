@@ -26,11 +26,11 @@ from gdabench import (
 )
 from gdabench.body import Body
 from gdabench.errors import ConfigError, TrialError
-from gdabench.execution.strategy import EvaluationStrategy
 from gdabench.plugins import Registry
 from gdabench.results import COLUMNS, RunDirectory
 from gdabench.running.runner import compare
 from gdabench.specs import Factory
+from gdabench.strategy import EvaluationStrategy
 
 A, B, C, D = "33/00", "44/00", "34/30", "43/03"
 INVALID = "11/11"

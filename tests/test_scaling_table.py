@@ -136,7 +136,7 @@ def test_comparisons_pair_by_seed_orient_a12_and_correct_per_designer(table):
 
 
 def test_the_committed_experiment_follows_the_scripts_rule(table):
-    from gdabench.experiment_build import build_run
+    from gdabench.experiment.build import build_run
 
     experiment = build_run({"config": BENCHMARKS.parent / "experiments" / "scaling.toml"}).experiment
     assert (experiment.population, experiment.budget) == table.scaled(experiment.shape, 40, 1.0)

@@ -36,8 +36,9 @@ from ..body import Body
 from ..errors import ConfigError
 from ..names import file_name
 from ..results import RunDirectory, atomic_write_bytes, is_dir, is_file
+from ..stats.core import with_run_id
 from ..statuses import OK
-from .runtimes import RunTrace, run_traces, with_run_id
+from .runtimes import RunTrace, run_traces
 from .staging import staged_folder, writing
 
 FORMATS = ("ioh", "csv")
