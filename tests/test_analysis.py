@@ -12,7 +12,6 @@ import numpy as np
 import pandas as pd
 import pytest
 from scipy.stats import mannwhitneyu, norm, trim_mean, wilcoxon
-from stat_tables import small_run, table
 
 from gdabench.errors import ConfigError
 from gdabench.report import aggregate as agg
@@ -30,6 +29,8 @@ from gdabench.report.runtimes import (
 )
 from gdabench.results import RunDirectory
 from gdabench.stats.power import critical_value, minimum_seeds, noether, power, seeds_needed
+
+from support.stat_tables import small_run, table
 
 
 # -- runtimes --------------------------------------------------------------------------------------

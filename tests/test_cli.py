@@ -197,10 +197,10 @@ def test_report_on_non_run_directory(tmp_path):
 
 
 def test_resume_continues_a_killed_run(tmp_path):
-    from listeners import KillAt, Killed
-
     from gdabench import Experiment, PluginChoice
     from gdabench.running.runner import compare
+
+    from support.listeners import KillAt, Killed
 
     exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), envs=PluginChoice("simple"), budget=100)
     with pytest.raises(Killed):

@@ -6,7 +6,6 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from processes import TIMING
 from typer.testing import CliRunner
 
 from gdabench import hookimpl
@@ -14,6 +13,8 @@ from gdabench.cli import app
 from gdabench.experiment.config import Experiment, PluginChoice
 from gdabench.plugins import Registry
 from gdabench.running.runner import compare
+
+from support.processes import TIMING
 
 runner = CliRunner()
 

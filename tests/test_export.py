@@ -11,7 +11,6 @@ import shutil
 import numpy as np
 import pandas as pd
 import pytest
-from stat_tables import small_run, table
 from typer.testing import CliRunner
 
 from gdabench.cli import app
@@ -19,6 +18,8 @@ from gdabench.errors import ConfigError
 from gdabench.report.export import _dat_block, export_run
 from gdabench.report.runtimes import run_traces
 from gdabench.statuses import COUNTED
+
+from support.stat_tables import small_run, table
 
 ioh = pytest.importorskip("ioh")
 iohinspector = pytest.importorskip("iohinspector")

@@ -16,7 +16,6 @@ import numpy as np
 import pytest
 import torch
 import torch.nn.functional as F
-from gda_reference import RefUNet
 from torch._dynamo.utils import counters
 
 from gdabench import Body, ConfigError, make_designer, random_body
@@ -31,6 +30,8 @@ from gdabench.designers.gda.schedule import make_schedule
 from gdabench.designers.gda.surrogate import ridge_predictor
 from gdabench.designers.gda.training import Trainer, TrainerSpec, TrainJob, repeat_to
 from gdabench.torch_runtime import resolve_device, torch_threads
+
+from support.gda_reference import RefUNet
 
 FAST = {"steps": 50, "epochs": 2}  # a short diffusion for loop tests
 EPOCHS_ONE_BODY = 120

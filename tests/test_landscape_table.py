@@ -6,7 +6,8 @@ import json
 from dataclasses import replace
 
 import pytest
-from scripts import load_script
+
+from support.scripts import load_script
 
 
 @pytest.fixture(scope="module")

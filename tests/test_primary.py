@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import pytest
 from scipy.stats import wilcoxon
-from stat_tables import table
 from typer.testing import CliRunner
 
 from gdabench.cli import app
@@ -15,6 +14,8 @@ from gdabench.experiment.config import Experiment, Primary
 from gdabench.report.build import write_report
 from gdabench.report.pairwise import holm, pairwise
 from gdabench.stats.power import seeds_needed
+
+from support.stat_tables import table
 
 #: per seed, the best reward of three designers: a beats b on 6 of 7 seeds (exact p = 0.03125 alone)
 A = [5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 2.0]

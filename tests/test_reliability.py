@@ -17,12 +17,13 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from processes import cli, default_sigint, error_lines, table
 from typer.testing import CliRunner
 
 from gdabench.cli import app
 from gdabench.faults import POINTS
 from gdabench.results import RunDirectory
+
+from support.processes import cli, default_sigint, error_lines, table
 
 ARGS = [
     "compare",

@@ -10,7 +10,6 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 import pytest
-from listeners import KillAt, Killed
 
 from gdabench import (
     Controller,
@@ -31,6 +30,8 @@ from gdabench.results import COLUMNS, RunDirectory
 from gdabench.running.runner import compare
 from gdabench.specs import Factory
 from gdabench.strategy import EvaluationStrategy
+
+from support.listeners import KillAt, Killed
 
 A, B, C, D = "33/00", "44/00", "34/30", "43/03"
 INVALID = "11/11"

@@ -19,8 +19,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from listeners import KillAt, Killed
-from processes import cli, table
 
 from gdabench import Experiment, PluginChoice
 from gdabench.body import Body
@@ -30,6 +28,9 @@ from gdabench.execution.cache import EvaluationCache
 from gdabench.results import RunDirectory
 from gdabench.running.runner import compare
 from gdabench.specs import Factory
+
+from support.listeners import KillAt, Killed
+from support.processes import cli, table
 
 
 @pytest.fixture(scope="module")

@@ -6,7 +6,8 @@ import json
 
 import pandas as pd
 import pytest
-from scripts import BENCHMARKS, load_script
+
+from support.scripts import BENCHMARKS, load_script
 
 
 @pytest.fixture(scope="module")

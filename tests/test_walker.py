@@ -540,10 +540,11 @@ def test_compare_runs_the_walker_with_open_loop(tmp_path):
 
 
 def test_jobs_through_the_command_line_give_the_same_walker_table(tmp_path):
-    from processes import TIMING
     from typer.testing import CliRunner
 
     from gdabench.cli import app
+
+    from support.processes import TIMING
 
     args = [
         "compare",

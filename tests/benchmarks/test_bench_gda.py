@@ -29,7 +29,7 @@ from gdabench.designers.gda.training import Trainer, repeat_to
 from gdabench.torch_runtime import torch_threads
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from gda_reference import RefUNet
+from support.gda_reference import RefUNet
 
 SCHEDULE = make_schedule("linear", 500, 1e-4, 0.02)
 SURVIVORS = torch.from_numpy(encode(np.stack([random_body(np.random.default_rng(i)).voxels for i in range(5)])))[
