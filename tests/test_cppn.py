@@ -83,8 +83,8 @@ def test_population_comes_from_the_harness_and_user_config_is_used(tmp_path):
     path = tmp_path / "mine.cfg"
     path.write_text(shipped_config_text().replace("conn_add_prob    = 0.2", "conn_add_prob    = 0.5"))
     designer = CppnNeat(config=str(path), population=10, seed=np.random.SeedSequence(0))
-    assert designer._config.genome_config.conn_add_prob == 0.5
-    assert designer._config.pop_size == 10
+    assert designer.neat_config.genome_config.conn_add_prob == 0.5
+    assert designer.neat_config.pop_size == 10
     assert len(designer.ask()) == 10
 
 

@@ -15,7 +15,7 @@ from typer.testing import CliRunner
 
 from gdabench.cli import app
 from gdabench.errors import ConfigError
-from gdabench.report.export import _dat_block, export_run
+from gdabench.report.export import dat_block, export_run
 from gdabench.report.runtimes import run_traces
 from gdabench.statuses import COUNTED
 
@@ -121,7 +121,7 @@ def test_same_lines_as_the_ioh_logger_writes(run, exported, tmp_path):
 
 def test_failed_evaluations_are_minus_infinity_until_the_first_success():
     (trace,) = run_traces(table({("e", "a", 0): [math.nan, 2.0, math.nan, 1.0]}))
-    assert _dat_block(trace) == "evaluations raw_y\n1 -inf\n2 2.0\n4 2.0\n"
+    assert dat_block(trace) == "evaluations raw_y\n1 -inf\n2 2.0\n4 2.0\n"
 
 
 def test_several_environments_are_several_problems(run, tmp_path):
