@@ -609,9 +609,9 @@ def thesis_budget_bodies(root: Path) -> str:
 
 
 def _reevaluations(root: Path) -> Any:
-    from gdabench.running.reevaluation import load
+    from gdabench.results import load_reevaluations
 
-    return load(root / PUBLISHED / "walker")
+    return load_reevaluations(root / PUBLISHED / "walker")
 
 
 def walker_reevaluated(root: Path) -> str:
