@@ -31,22 +31,26 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # cpu_burn, for the driver and (via sys.path) its workers
 
-from gdabench import EnvironmentSpec, hookimpl  # noqa: E402
-from gdabench.body import random_body  # noqa: E402
-from gdabench.config import PluginChoice, parse_params  # noqa: E402
-from gdabench.execution import OK, EvalTask, Executor, SerialExecutor  # noqa: E402
-from gdabench.execution.pool import ProcessExecutor  # noqa: E402
-from gdabench.plugins import Registry  # noqa: E402
-from gdabench.specs import Factory  # noqa: E402
+from gdabench import EnvironmentSpec, hookimpl
+from gdabench.body import random_body
+from gdabench.execution import OK, EvalTask, Executor, SerialExecutor
+from gdabench.execution.pool import ProcessExecutor
+from gdabench.experiment.config import PluginChoice, parse_params
+from gdabench.plugins import Registry
+from gdabench.specs import Factory
 
 
 class StandIn:
     @hookimpl
     def gdabench_environments(self):
-        return [EnvironmentSpec("cpu-burn", "cpu_burn:CpuBurn", "fixed pure-Python CPU work per body (benchmark stand-in)")]
+        return [
+            EnvironmentSpec("cpu-burn", "cpu_burn:CpuBurn", "fixed pure-Python CPU work per body (benchmark stand-in)")
+        ]
 
 
-def recipes(reg: Registry, env: str, env_params: list[str], controller: str | None, ctrl_params: list[str], shape) -> tuple[Factory, Factory | None]:
+def recipes(
+    reg: Registry, env: str, env_params: list[str], controller: str | None, ctrl_params: list[str], shape
+) -> tuple[Factory, Factory | None]:
     env_choice = PluginChoice.parse(env).with_params(parse_params(env_params))
     env_recipe = reg.get("environment", env_choice.name).spec.recipe({"shape": shape, **env_choice.params})
     ctrl_recipe = None
@@ -77,7 +81,9 @@ def make_executor(kind: str, workers: int, warm: list[Factory]) -> Executor:
     return RayExecutor(workers, warm=warm)
 
 
-def rate(kind: str, workers: int, tasks: list[EvalTask], population: int, repeats: int, warm: list[Factory]) -> tuple[float, float, float]:
+def rate(
+    kind: str, workers: int, tasks: list[EvalTask], population: int, repeats: int, warm: list[Factory]
+) -> tuple[float, float, float]:
     """Evaluations per second, busy share and CPU share (medians over ``repeats`` passes through ``tasks``)."""
     rates, busy, cpu = [], [], []
     with make_executor(kind, workers, warm) as executor:
@@ -102,7 +108,9 @@ def shares(busy: float, cpu: float) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--env", default="cpu-burn", help="environment for the speed-up (default: the CPU-bound stand-in)")
+    parser.add_argument(
+        "--env", default="cpu-burn", help="environment for the speed-up (default: the CPU-bound stand-in)"
+    )
     parser.add_argument("-E", "--env-param", action="append", default=[])
     parser.add_argument("--controller")
     parser.add_argument("-C", "--controller-param", action="append", default=[])
@@ -118,14 +126,25 @@ def main() -> None:
     if "ray" in executors:
         import ray
 
-        ray.init(num_cpus=2, include_dashboard=False, logging_level="WARNING", runtime_env={"env_vars": {"PYTHONPATH": os.pathsep.join(sys.path)}})
-    print(f"machine: {os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f} at start (shared machines understate speed-ups)")
+        ray.init(
+            num_cpus=2,
+            include_dashboard=False,
+            logging_level="WARNING",
+            runtime_env={"env_vars": {"PYTHONPATH": os.pathsep.join(sys.path)}},
+        )
+    print(
+        f"machine: {os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f} at start (shared machines "
+        "understate speed-ups)"
+    )
 
     env, ctrl = recipes(reg, args.env, args.env_param, args.controller, args.controller_param, shape)
     warm = [r for r in (env, ctrl) if r is not None]
     tasks = make_tasks(env, ctrl, args.evals, shape, seed=1)
     label = args.env + (f" / {args.controller}" if args.controller else "")
-    print(f"\nthroughput on {label}: {args.evals} evaluations per pass, batches of {args.population}, median of {args.repeats}")
+    print(
+        f"\nthroughput on {label}: {args.evals} evaluations per pass, batches of {args.population}, median "
+        f"of {args.repeats}"
+    )
     serial, busy, cpu = rate("serial", 1, tasks, args.population, args.repeats, warm)
     print(f"  serial            {serial:8.2f} evals/s  ({1000 / serial:.1f} ms per evaluation; {shares(busy, cpu)})")
     for kind in executors:
@@ -136,8 +155,13 @@ def main() -> None:
 
     simple, _ = recipes(reg, "simple", [], None, [], shape)
     light = make_tasks(simple, None, args.overhead_evals, shape, seed=2)
-    print(f"\nper-evaluation overhead on simple: {args.overhead_evals} evaluations per pass, batches of {args.population}")
-    per_eval = {kind: 1e3 / rate(kind, 2 if kind != "serial" else 1, light, args.population, args.repeats, [simple])[0] for kind in ["serial", *executors]}
+    print(
+        f"\nper-evaluation overhead on simple: {args.overhead_evals} evaluations per pass, batches of {args.population}"
+    )
+    per_eval = {
+        kind: 1e3 / rate(kind, 2 if kind != "serial" else 1, light, args.population, args.repeats, [simple])[0]
+        for kind in ["serial", *executors]
+    }
     for kind, ms in per_eval.items():
         print(f"  {kind:<7} {ms:7.3f} ms per evaluation" + ("" if kind == "serial" else " (2 workers)"))
     if {"process", "ray"} <= set(per_eval):

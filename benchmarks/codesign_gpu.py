@@ -32,11 +32,10 @@ class Deadline(Exception):
 
 
 def run_arm(arm: str, names: list[str], timesteps: int, minutes: float) -> dict[str, Any]:
+    from gdabench.batched import ArrayBodies
     from gdabench.controllers.ppo import PPOConfig
     from gdabench.controllers.ppo.train import train
-    from gdabench.envs.batched import ArrayBodies
-    from gdabench.envs.voxel import engine
-    from gdabench.envs.voxel import MAX_EPISODE_STEPS
+    from gdabench.envs.voxel import MAX_EPISODE_STEPS, engine
     from gdabench.envs.voxel.batch import TaskBatch
 
     device, schedule = arm.split(":")

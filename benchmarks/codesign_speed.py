@@ -38,10 +38,10 @@ import sys
 import time
 from typing import Any
 
-SETTINGS = dict(
-    learning_rate=2.5e-4, n_steps=128, batch_size=4, n_epochs=4, gamma=0.99, gae_lambda=0.95, vf_coef=0.5,
-    ent_coef=0.01, clip_range=0.1, max_grad_norm=0.5,
-)
+SETTINGS = {
+    "learning_rate": 2.5e-4, "n_steps": 128, "batch_size": 4, "n_epochs": 4, "gamma": 0.99, "gae_lambda": 0.95,
+    "vf_coef": 0.5, "ent_coef": 0.01, "clip_range": 0.1, "max_grad_norm": 0.5,
+}
 
 
 def bodies(n: int, seed: int) -> list[str]:
@@ -61,8 +61,8 @@ def _one_core() -> None:
 
 
 def run_lockstep(names: list[str], timesteps: int, seed: int) -> dict[str, Any]:
+    from gdabench.batched import ArrayBodies
     from gdabench.controllers.ppo import PPOConfig
-    from gdabench.envs.batched import ArrayBodies
     from gdabench.controllers.ppo.train import train
     from gdabench.envs.voxel import engine
     from gdabench.envs.voxel.batch import TaskBatch
@@ -84,9 +84,9 @@ def run_lockstep(names: list[str], timesteps: int, seed: int) -> dict[str, Any]:
 def run_pymunk(name: str, timesteps: int, seed: int) -> dict[str, Any]:
     import functools
 
+    from gdabench.batched import GymBodies
     from gdabench.body import as_body
     from gdabench.controllers.ppo import PPOConfig
-    from gdabench.envs.batched import GymBodies
     from gdabench.controllers.ppo.train import train
     from gdabench.envs.walker.env import make_walker
 
@@ -113,7 +113,11 @@ def run_pymunk_before(name: str, timesteps: int, seed: int) -> dict[str, Any]:
     result = train(config, make_env, seed=seed, device=torch.device("cpu"), compiled=True)  # type: ignore[call-arg]
     s, c = result.seconds, result.cpu_seconds
     # the first minibatch step compiles (once per process): left out, as a long training amortises it
-    return {"steps": result.timesteps, "wall": s["collect"] + s["update"] - s["warmup"], "cpu": c["collect"] + c["update"]}
+    return {
+        "steps": result.timesteps,
+        "wall": s["collect"] + s["update"] - s["warmup"],
+        "cpu": c["collect"] + c["update"],
+    }
 
 
 def run_evogym_sb3(name: str, timesteps: int, seed: int) -> dict[str, Any]:
@@ -136,7 +140,18 @@ def spawn(arm: str, args: argparse.Namespace, names: list[str], seed: int) -> su
         env["PYTHONPATH"] = args.before
     if arm == "evogym-sb3":
         python = args.evogym_python
-    cmd = [python, __file__, "--one", arm, "--names", ",".join(names), "--timesteps", str(args.timesteps), "--seed", str(seed)]
+    cmd = [
+        python,
+        __file__,
+        "--one",
+        arm,
+        "--names",
+        ",".join(names),
+        "--timesteps",
+        str(args.timesteps),
+        "--seed",
+        str(seed),
+    ]
     return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
 
 
@@ -150,15 +165,21 @@ def finish(arm: str, process: subprocess.Popen) -> dict[str, Any]:
 
 def measure(arm: str, args: argparse.Namespace, names: list[str], seed: int) -> dict[str, Any]:
     if arm != "lockstep-machine":
-        row = finish(arm, spawn("lockstep" if arm == "lockstep" else arm, args, names if arm == "lockstep" else names[:1], seed))
+        row = finish(
+            arm, spawn("lockstep" if arm == "lockstep" else arm, args, names if arm == "lockstep" else names[:1], seed)
+        )
         extra = {"peak_mb": row["peak_mb"]} if "peak_mb" in row else {}
         return {"arm": arm, "per_s": row["steps"] / row["wall"], "per_cpu_s": row["steps"] / row["cpu"], **extra}
     shares = [names[i :: args.processes] for i in range(args.processes)]
     start = time.perf_counter()
     rows = [finish(arm, p) for p in [spawn("lockstep", args, share, seed) for share in shares]]
     # the sum of each process's own rate (each excludes its kernel compilation and its evaluation)
-    return {"arm": arm, "per_s": sum(r["steps"] / r["wall"] for r in rows), "per_cpu_s": sum(r["steps"] / r["cpu"] for r in rows),
-            "span_s": time.perf_counter() - start}
+    return {
+        "arm": arm,
+        "per_s": sum(r["steps"] / r["wall"] for r in rows),
+        "per_cpu_s": sum(r["steps"] / r["cpu"] for r in rows),
+        "span_s": time.perf_counter() - start,
+    }
 
 
 ARMS = ("lockstep", "pymunk", "pymunk-before", "evogym-sb3", "lockstep-machine")
@@ -181,17 +202,25 @@ def main() -> None:
     if args.one:
         _one_core()
         names = args.names.split(",")
-        run = {"lockstep": run_lockstep, "pymunk": lambda n, t, s: run_pymunk(n[0], t, s),
-               "pymunk-before": lambda n, t, s: run_pymunk_before(n[0], t, s),
-               "evogym-sb3": lambda n, t, s: run_evogym_sb3(n[0], t, s)}[args.one]
+        run = {
+            "lockstep": run_lockstep,
+            "pymunk": lambda n, t, s: run_pymunk(n[0], t, s),
+            "pymunk-before": lambda n, t, s: run_pymunk_before(n[0], t, s),
+            "evogym-sb3": lambda n, t, s: run_evogym_sb3(n[0], t, s),
+        }[args.one]
         print(json.dumps(run(names, args.timesteps, args.seed)))
         return
     arms = args.arms.split(",")
     unknown = set(arms) - set(ARMS)
     if unknown or ("pymunk-before" in arms and not args.before) or ("evogym-sb3" in arms and not args.evogym_python):
-        parser.error(f"unknown arms {sorted(unknown)}" if unknown else "pymunk-before needs --before, evogym-sb3 --evogym-python")
+        parser.error(
+            f"unknown arms {sorted(unknown)}" if unknown else "pymunk-before needs --before, evogym-sb3 --evogym-python"
+        )
     names = bodies(args.bodies, args.seed)
-    print(f"{args.bodies} bodies, {args.timesteps} timesteps each, {args.repeats} repeats; arms in turn: {', '.join(arms)}")
+    print(
+        f"{args.bodies} bodies, {args.timesteps} timesteps each, {args.repeats} repeats; arms in turn: "
+        f"{', '.join(arms)}"
+    )
     rows = []
     for repeat in range(args.repeats):
         for arm in arms if repeat % 2 == 0 else arms[::-1]:

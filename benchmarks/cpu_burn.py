@@ -26,4 +26,6 @@ class CpuBurn(Environment):
         start, x = time.process_time(), seed
         for _ in range(self.iterations):
             x = (x * 1103515245 + 12345) & 0x7FFFFFFF
-        return Evaluation(float(np.asarray(body.voxels, dtype=np.int64).sum()), {"cpu_seconds": time.process_time() - start})
+        return Evaluation(
+            float(np.asarray(body.voxels, dtype=np.int64).sum()), {"cpu_seconds": time.process_time() - start}
+        )

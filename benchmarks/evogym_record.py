@@ -120,10 +120,14 @@ def record_task(task: str, index: int, steps: int) -> dict[str, np.ndarray]:
     raw = env.unwrapped
     sim = raw.sim
     names = sorted(raw.world.objects)
-    moving = [name for name in names if np.any((raw.world.objects[name].grid != 0) & (raw.world.objects[name].grid != 5))]
+    grids = {name: raw.world.objects[name].grid for name in names}
+    moving = [name for name in names if np.any((grids[name] != 0) & (grids[name] != 5))]
     key = f"{task}/{index}"
-    out = {f"{key}/body": np.array(body_text), f"{key}/obs0": np.asarray(obs0, dtype=np.float64),
-           f"{key}/moving": np.array(moving)}
+    out = {
+        f"{key}/body": np.array(body_text),
+        f"{key}/obs0": np.asarray(obs0, dtype=np.float64),
+        f"{key}/moving": np.array(moving),
+    }
     for name in names:
         out[f"{key}/pos0/{name}"] = Sim.object_pos_at_time(sim, sim.get_time(), name).T.copy()
     if hasattr(raw, "offsetx"):
@@ -144,8 +148,14 @@ def record_task(task: str, index: int, steps: int) -> dict[str, np.ndarray]:
             pos[name].append(Sim.object_pos_at_time(sim, sim.get_time(), name).T.copy())
         if terminated or truncated:
             break
-    out.update({f"{key}/actions": np.array(actions), f"{key}/obs": np.array(obs), f"{key}/reward": np.array(rewards),
-                f"{key}/done": np.array(done)})
+    out.update(
+        {
+            f"{key}/actions": np.array(actions),
+            f"{key}/obs": np.array(obs),
+            f"{key}/reward": np.array(rewards),
+            f"{key}/done": np.array(done),
+        }
+    )
     for name in moving:
         out[f"{key}/pos/{name}"] = np.array(pos[name])
     return out
@@ -153,10 +163,19 @@ def record_task(task: str, index: int, steps: int) -> dict[str, np.ndarray]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("path", type=Path, help="the .npz file to write (tests/fixtures/voxel_parity.npz), or with "
-                        "--tasks the folder of the tasks' files (tests/fixtures/tasks)")
-    parser.add_argument("--tasks", nargs="*", metavar="TASK", default=None,
-                        help="record Evolution Gym's tasks (all, or those named) instead of the walker cases")
+    parser.add_argument(
+        "path",
+        type=Path,
+        help="the .npz file to write (tests/fixtures/voxel_parity.npz), or with "
+        "--tasks the folder of the tasks' files (tests/fixtures/tasks)",
+    )
+    parser.add_argument(
+        "--tasks",
+        nargs="*",
+        metavar="TASK",
+        default=None,
+        help="record Evolution Gym's tasks (all, or those named) instead of the walker cases",
+    )
     parser.add_argument("--steps", type=int, default=TASK_STEPS, help="env steps per task recording")
     args = parser.parse_args()
     try:
@@ -177,7 +196,10 @@ def main() -> None:
             np.savez_compressed(args.path / f"{task}.npz", **data)
             print(f"wrote {args.path / task}.npz")
     except ImportError as exc:
-        print(f"error: Evolution Gym is not installed ({exc}); run this in plugins/gdabench-evogym's venv", file=sys.stderr)
+        print(
+            f"error: Evolution Gym is not installed ({exc}); run this in plugins/gdabench-evogym's venv",
+            file=sys.stderr,
+        )
         raise SystemExit(2) from None
 
 

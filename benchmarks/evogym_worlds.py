@@ -1,4 +1,4 @@
-"""Write the task worlds of Evolution Gym 2.0 (its ``envs/sim_files/*.json``) in gdabench's form (run in the plugin's venv).
+"""Write the task worlds of Evolution Gym 2.0 (``envs/sim_files/*.json``) in gdabench's form (plugin's venv).
 
     bash plugins/gdabench-evogym/install.sh /tmp/venv-evogym
     /tmp/venv-evogym/bin/python benchmarks/evogym_worlds.py gdabench/envs/tasks/worlds.json
@@ -41,10 +41,14 @@ def read_worlds() -> dict:
             given = {tuple(sorted(p)) for p in conns.T.tolist()} if conns.size else set()
             if full != given:
                 raise SystemExit(f"error: {file}: object {name} does not connect all its adjacent cells")
-            objects[name] = {"at": [int(obj.pos.x), int(obj.pos.y)],
-                             "rows": ["".join(str(int(c)) for c in row) for row in grid]}
-        worlds[file.removesuffix(".json")] = {"size": [int(world.grid_size.x), int(world.grid_size.y)],
-                                              "objects": objects}
+            objects[name] = {
+                "at": [int(obj.pos.x), int(obj.pos.y)],
+                "rows": ["".join(str(int(c)) for c in row) for row in grid],
+            }
+        worlds[file.removesuffix(".json")] = {
+            "size": [int(world.grid_size.x), int(world.grid_size.y)],
+            "objects": objects,
+        }
     return worlds
 
 
@@ -55,8 +59,10 @@ def main() -> None:
     try:
         worlds = read_worlds()
     except ImportError as exc:
-        print(f"error: Evolution Gym is not installed ({exc}); run this in plugins/gdabench-evogym's venv",
-              file=sys.stderr)
+        print(
+            f"error: Evolution Gym is not installed ({exc}); run this in plugins/gdabench-evogym's venv",
+            file=sys.stderr,
+        )
         raise SystemExit(2) from None
     source = "Evolution Gym 2.0.0, evogym/envs/sim_files (MIT License, Copyright (c) 2022 jagdeepsb)"
     args.path.write_text(json.dumps({"source": source, "worlds": worlds}, indent=1) + "\n")

@@ -34,7 +34,9 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--seeds", type=int, default=5)
     args = parser.parse_args()
-    experiment = Experiment((PluginChoice("ga"), PluginChoice("random")), PluginChoice("simple"), seeds=tuple(range(args.seeds)))
+    experiment = Experiment(
+        (PluginChoice("ga"), PluginChoice("random")), PluginChoice("simple"), seeds=tuple(range(args.seeds))
+    )
     times: dict[bool, list[float]] = {True: [], False: []}
     with tempfile.TemporaryDirectory(dir=".") as tmp:
         for i in range(args.repeats):
@@ -42,7 +44,10 @@ def main() -> None:
                 times[fsync].append(timed(experiment, Path(tmp) / f"{fsync}-{i}", fsync))
     on, off = statistics.median(times[True]), statistics.median(times[False])
     generations = 2 * args.seeds * 40
-    print(f"{experiment.designers[0].label},random on simple, {args.seeds} seeds ({generations} generations, jobs 1), median of {args.repeats}:")
+    print(
+        f"{experiment.designers[0].label},random on simple, {args.seeds} seeds ({generations} generations, "
+        f"jobs 1), median of {args.repeats}:"
+    )
     print(f"  with fsync    {on:6.2f} s")
     print(f"  without fsync {off:6.2f} s")
     print(f"  ratio {on / off:.2f}  ({(on - off) / generations * 1000:.1f} ms per generation)")

@@ -19,7 +19,7 @@ import sys
 import pandas as pd
 
 from gdabench.results import RunDirectory
-from gdabench.report.summary import summarize
+from gdabench.stats.summary import summarize
 
 
 def finished_rows(run: RunDirectory) -> pd.DataFrame:
@@ -35,11 +35,16 @@ def finished_rows(run: RunDirectory) -> pd.DataFrame:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("runs", nargs="+", help="run directories written by gdabench compare/run")
-    parser.add_argument("--threshold", type=float, default=100.0, help="reward whose first reach is counted (default: 100)")
+    parser.add_argument(
+        "--threshold", type=float, default=100.0, help="reward whose first reach is counted (default: 100)"
+    )
     args = parser.parse_args()
     frame = pd.concat([finished_rows(RunDirectory.open(path)) for path in args.runs], ignore_index=True)
     table = summarize(frame, args.threshold)
-    print(f"| designer | seeds | reaching {args.threshold:g} | evaluations to reach it (median) | best reward, median (range) | wall s per run (median) |")
+    print(
+        f"| designer | seeds | reaching {args.threshold:g} | evaluations to reach it (median) | best reward, "
+        "median (range) | wall s per run (median) |"
+    )
     print("|---|---|---|---|---|---|")
     for _, row in table.iterrows():
         to_reach = row["evals_to_threshold_median"]

@@ -62,7 +62,9 @@ class NoiseLoss(nn.Module):
         return F.mse_loss(self.unet.forward_features(x, f), n)
 
 
-def autograd(compiled: bool, optimizer_inside: bool) -> Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor]:
+def autograd(
+    compiled: bool, optimizer_inside: bool
+) -> Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor]:
     objective = NoiseLoss(UNet())
     reset_parameters(objective, torch.Generator().manual_seed(0))
     names = [n for n, _ in objective.named_parameters()]
@@ -83,7 +85,21 @@ def autograd(compiled: bool, optimizer_inside: bool) -> Callable[[torch.Tensor, 
         def whole(x: torch.Tensor, f: torch.Tensor, n: torch.Tensor) -> torch.Tensor:
             with torch.no_grad():
                 g, loss = grads(x, f, n)
-                adamw(params, g, exp_avg, exp_avg_sq, [], counts, amsgrad=False, beta1=0.9, beta2=0.999, lr=1e-3, weight_decay=0.01, eps=1e-8, maximize=False)
+                adamw(
+                    params,
+                    g,
+                    exp_avg,
+                    exp_avg_sq,
+                    [],
+                    counts,
+                    amsgrad=False,
+                    beta1=0.9,
+                    beta2=0.999,
+                    lr=1e-3,
+                    weight_decay=0.01,
+                    eps=1e-8,
+                    maximize=False,
+                )
             return loss
 
         return torch.compile(whole, dynamic=False) if compiled else whole
@@ -103,7 +119,7 @@ def autograd(compiled: bool, optimizer_inside: bool) -> Callable[[torch.Tensor, 
 def epoch(step: Callable, data: torch.Tensor, feats: torch.Tensor, noise: torch.Tensor) -> None:
     a = 0
     for b in SIZES:
-        step(data[a:a + b], feats[a:a + b], noise[a:a + b])
+        step(data[a : a + b], feats[a : a + b], noise[a : a + b])
         a += b
 
 
@@ -111,7 +127,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--epochs", type=int, default=20, help="epochs per timing")
     ap.add_argument("--rounds", type=int, default=5, help="interleaved timings of each variant")
-    ap.add_argument("--only-handmade", action="store_true", help="skip the autograd variants (they take minutes to compile)")
+    ap.add_argument(
+        "--only-handmade", action="store_true", help="skip the autograd variants (they take minutes to compile)"
+    )
     args = ap.parse_args()
     torch.set_num_threads(1)
     gen = torch.Generator().manual_seed(0)

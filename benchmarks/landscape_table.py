@@ -3,8 +3,8 @@
 Each designer runs the ``landscapes`` suite (or the environments given with ``--envs``) as one
 suite run, ``<root>/<designer>``, unless a complete one exists (designers and seeds can be added
 later without redoing the others, see ``suite_runs.py``; an interrupted run is resumed).  Then one
-table row per (environment, designer): seeds that reached the environment's optimum, median evaluations to reach it (a seed
-that never reached it counts as infinitely many, so the median says "not reached" when half the
+table row per (environment, designer): seeds that reached the environment's optimum, median evaluations to reach it
+(a seed that never reached it counts as infinitely many, so the median says "not reached" when half the
 seeds or more missed it), median best reward with its range, and median wall time of a seed.
 
     nice -n 10 python benchmarks/landscape_table.py --designers ga,random
@@ -22,15 +22,14 @@ import sys
 from pathlib import Path
 
 import pandas as pd
+from suite_runs import ensure_runs, run_dirs, stopped
 
 from gdabench import Experiment, PluginChoice, RunDirectory
-from gdabench.config import parse_seeds
 from gdabench.errors import GdabenchError
-from gdabench.running.plan import Plan, file_name
+from gdabench.experiment.config import parse_seeds
+from gdabench.experiment.plan import Plan, file_name
 from gdabench.plugins import registry
-from gdabench.report.summary import summarize, thresholds
-
-from suite_runs import ensure_runs, run_dirs, stopped
+from gdabench.stats.summary import summarize, thresholds
 
 
 def table_rows(designers: list[list[Path]], envs: list[PluginChoice]) -> pd.DataFrame:
@@ -57,7 +56,8 @@ def fmt(value: float, digits: int = 4) -> str:
 
 def markdown(rows: pd.DataFrame) -> str:
     header = (
-        "| env | optimum | designer | seeds at optimum | evals to optimum (median) | best reward: median (min-max) | wall s per seed (median) |\n"
+        "| env | optimum | designer | seeds at optimum | evals to optimum (median) | best reward: median "
+        "(min-max) | wall s per seed (median) |\n"
         "|---|---:|---|---:|---:|---:|---:|\n"
     )
     lines = []
@@ -76,7 +76,9 @@ def markdown(rows: pd.DataFrame) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--designers", default="ga,cppn,gda,random", help="comma-separated designers (labels may carry [params])")
+    parser.add_argument(
+        "--designers", default="ga,cppn,gda,random", help="comma-separated designers (labels may carry [params])"
+    )
     parser.add_argument("--envs", default=None, help="comma-separated environments (default: the landscapes suite)")
     parser.add_argument("--seeds", default="0..9")
     parser.add_argument("--budget", type=int, default=1000)
@@ -86,9 +88,16 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         designers = PluginChoice.parse_list(args.designers)
-        envs = PluginChoice.parse_list(args.envs) if args.envs else [PluginChoice.parse(e) for e in registry().get("suite", "landscapes").spec.envs]
+        envs = (
+            PluginChoice.parse_list(args.envs)
+            if args.envs
+            else [PluginChoice.parse(e) for e in registry().get("suite", "landscapes").spec.envs]
+        )
         seeds = tuple(parse_seeds(args.seeds))
-        experiments = [Experiment((d,), tuple(envs), population=args.population, budget=args.budget, seeds=seeds) for d in designers]
+        experiments = [
+            Experiment((d,), tuple(envs), population=args.population, budget=args.budget, seeds=seeds)
+            for d in designers
+        ]
         if not args.no_run:
             for experiment in experiments:  # check every name and parameter before spending time on runs
                 Plan.resolve(experiment)

@@ -34,7 +34,9 @@ def tree_rss_kb(root: int) -> int:
         except OSError:
             continue
         parents[int(entry.name)] = int(fields[1])
-        rss[int(entry.name)] = next((int(line.split()[1]) for line in status.splitlines() if line.startswith("VmRSS:")), 0)
+        rss[int(entry.name)] = next(
+            (int(line.split()[1]) for line in status.splitlines() if line.startswith("VmRSS:")), 0
+        )
     total = 0
     for pid in rss:
         ancestor = pid
@@ -50,7 +52,18 @@ def main() -> None:
     parser.add_argument("--out", type=Path, help="run directory (default: a temporary one)")
     args, extra = parser.parse_known_args()
     out = args.out or Path(tempfile.mkdtemp(prefix="main-job-")) / "run"
-    command = ["gdabench", "compare", "--designers", "ga,cppn,gda", "--env", "simple", "--out", str(out), "--quiet", *extra]
+    command = [
+        "gdabench",
+        "compare",
+        "--designers",
+        "ga,cppn,gda",
+        "--env",
+        "simple",
+        "--out",
+        str(out),
+        "--quiet",
+        *extra,
+    ]
     start = time.perf_counter()
     process = subprocess.Popen(command, stdout=subprocess.DEVNULL)
     peak = 0
@@ -70,7 +83,8 @@ def main() -> None:
     gens = rows[rows["designer"] == "gda"].groupby("generation").first().iloc[1:]
     ahead = int((gens["trained_ahead"] == True).sum()) if "trained_ahead" in gens else 0  # noqa: E712 - None in generation 0
     print(
-        f"gda per generation: training {gens['train_seconds'].median():.2f} s, sampling {gens['sample_seconds'].median():.2f} s "
+        f"gda per generation: training {gens['train_seconds'].median():.2f} s, sampling "
+        f"{gens['sample_seconds'].median():.2f} s "
         f"(medians); {ahead} of {len(gens)} trained generations had their model trained ahead"
     )
     print(f"results: {out}" if args.out else f"results: {out} (temporary)")

@@ -61,8 +61,14 @@ def main() -> None:
         alone.append(measure(1, args.epochs))
         together.append(measure(2, args.epochs))
     a, t = statistics.median(alone), statistics.median(together)
-    print(f"alone: {a * 1e3:.1f} ms per epoch; two side by side: {t * 1e3:.1f} ms per epoch each (medians of {args.rounds} rounds)")
-    print(f"each is {t / a:.2f}x slower side by side; ceiling of two trials at once against one after another: {2 * a / t:.2f}x")
+    print(
+        f"alone: {a * 1e3:.1f} ms per epoch; two side by side: {t * 1e3:.1f} ms per epoch each (medians of "
+        f"{args.rounds} rounds)"
+    )
+    print(
+        f"each is {t / a:.2f}x slower side by side; ceiling of two trials at once against one after another: "
+        f"{2 * a / t:.2f}x"
+    )
 
 
 if __name__ == "__main__":

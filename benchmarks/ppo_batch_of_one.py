@@ -44,12 +44,11 @@ def run_before(body: str, timesteps: int, seed: int) -> list[float]:
 def run_lockstep(pairs: list[tuple[str, int]], timesteps: int) -> list[list[float]]:
     import torch
 
+    from gdabench.batched import ArrayBodies
     from gdabench.controllers.ppo import PPOConfig
     from gdabench.controllers.ppo.train import train
-    from gdabench.envs.voxel import engine
-    from gdabench.envs.voxel import MAX_EPISODE_STEPS
+    from gdabench.envs.voxel import MAX_EPISODE_STEPS, engine
     from gdabench.envs.voxel.batch import TaskBatch
-    from gdabench.envs.batched import ArrayBodies
 
     torch.set_num_threads(1)
     pad = engine.body_tables(["44444/44444/44444/44444/44444"])
@@ -79,19 +78,32 @@ def main() -> None:
     env = {**os.environ, "PYTHONPATH": args.before, "OMP_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"}
     before = {}
     for body, seed in pairs:
-        cmd = [sys.executable, __file__, "--before", args.before, "--timesteps", str(args.timesteps), "--one", f"{body}:{seed}"]
+        cmd = [
+            sys.executable,
+            __file__,
+            "--before",
+            args.before,
+            "--timesteps",
+            str(args.timesteps),
+            "--one",
+            f"{body}:{seed}",
+        ]
         out = subprocess.run(cmd, capture_output=True, text=True, env=env, check=True).stdout.splitlines()[-1]
         before[body, seed] = json.loads(out)
     lockstep = dict(zip(pairs, run_lockstep(pairs, args.timesteps)))
-    print(f"{args.timesteps} timesteps, seeds {seeds}; evaluation every {args.timesteps // 10} timesteps, mean over seeds")
+    print(
+        f"{args.timesteps} timesteps, seeds {seeds}; evaluation every {args.timesteps // 10} timesteps, mean over seeds"
+    )
     for body in BODIES:
         print(f"\n{body}")
         for name, curves in (("per-body (before)", before), ("lockstep (now)", lockstep)):
             mean = [statistics.fmean(c) for c in zip(*(curves[body, s] for s in seeds))]
             finals = [max(curves[body, s]) for s in seeds]
             print(f"  {name:18s} curve {' '.join(f'{v:5.2f}' for v in mean)}")
-            print(f"  {'':18s} reward per seed (best evaluation) {' '.join(f'{v:.2f}' for v in finals)}"
-                  f"  mean {statistics.fmean(finals):.2f}")
+            print(
+                f"  {'':18s} reward per seed (best evaluation) {' '.join(f'{v:.2f}' for v in finals)}"
+                f"  mean {statistics.fmean(finals):.2f}"
+            )
 
 
 if __name__ == "__main__":

@@ -38,11 +38,10 @@ from pathlib import Path
 def train_bodies(names: list[str], timesteps: int, seed: int) -> list[dict]:
     import torch
 
+    from gdabench.batched import ArrayBodies
     from gdabench.controllers.ppo import PPOConfig
     from gdabench.controllers.ppo.train import train
-    from gdabench.envs.batched import ArrayBodies
-    from gdabench.envs.voxel import engine
-    from gdabench.envs.voxel import MAX_EPISODE_STEPS
+    from gdabench.envs.voxel import MAX_EPISODE_STEPS, engine
     from gdabench.envs.voxel.batch import TaskBatch
 
     torch.set_num_threads(1)

@@ -28,11 +28,10 @@ SCHEDULES = {
 def train_schedule(names: list[str], seeds: list[int], timesteps: int, schedule: dict) -> list[list[float]]:
     import torch
 
+    from gdabench.batched import ArrayBodies
     from gdabench.controllers.ppo import PPOConfig
     from gdabench.controllers.ppo.train import train
-    from gdabench.envs.batched import ArrayBodies
-    from gdabench.envs.voxel import engine
-    from gdabench.envs.voxel import MAX_EPISODE_STEPS
+    from gdabench.envs.voxel import MAX_EPISODE_STEPS, engine
     from gdabench.envs.voxel.batch import TaskBatch
 
     torch.set_num_threads(1)
@@ -68,7 +67,9 @@ def main() -> None:
         mean = [statistics.fmean(c) for c in zip(*curves[name])]
         best = [max(c) for c in curves[name]]
         print(f"{name}: curve {' '.join(f'{v:5.2f}' for v in mean)}")
-        print(f"{'':9s}mean best reward {statistics.fmean(best):.3f} (median {statistics.median(best):.3f})", flush=True)
+        print(
+            f"{'':9s}mean best reward {statistics.fmean(best):.3f} (median {statistics.median(best):.3f})", flush=True
+        )
     wins = sum(max(a) > max(b) for a, b in zip(curves["evogym1"], curves["evogym2"]))
     print(f"evogym1 scored higher on {wins} of {len(pairs)} (body, seed) pairs")
     for (body, seed), a, b in zip(pairs, curves["evogym2"], curves["evogym1"]):

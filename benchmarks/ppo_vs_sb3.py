@@ -33,7 +33,18 @@ from typing import Any
 
 #: a body that walks (an open-loop gait moves it about 5.5 on Walker-v0): legs of vertical actuators
 DEFAULT_BODY = "00000/44444/44444/40004/40004"
-SB3_SETTINGS = dict(learning_rate=2.5e-4, n_steps=128, batch_size=4, n_epochs=4, gamma=0.99, gae_lambda=0.95, vf_coef=0.5, ent_coef=0.01, clip_range=0.1, max_grad_norm=0.5)
+SB3_SETTINGS = {
+    "learning_rate": 2.5e-4,
+    "n_steps": 128,
+    "batch_size": 4,
+    "n_epochs": 4,
+    "gamma": 0.99,
+    "gae_lambda": 0.95,
+    "vf_coef": 0.5,
+    "ent_coef": 0.01,
+    "clip_range": 0.1,
+    "max_grad_norm": 0.5,
+}
 
 
 class _SB3Policy:
@@ -59,8 +70,8 @@ class _SB3Policy:
 def _evaluate(policy: Any, make_env: Any, episodes: int, seed: int) -> dict[str, float]:
     import torch
 
+    from gdabench.batched import GymBodies
     from gdabench.controllers.ppo.evaluation import evaluate_policies
-    from gdabench.envs.batched import GymBodies
 
     def play(generator: Any) -> float:
         [[score]] = evaluate_policies(
@@ -92,10 +103,10 @@ def run_one(side: str, body: str, timesteps: int, seed: int, episodes: int) -> d
         out = {"steps_per_s": steps / wall, "steps_per_s_cpu": steps / cpu}
         policy: Any = _SB3Policy(model, make_env().observation_space.shape[0])
     else:
+        from gdabench.batched import GymBodies
         from gdabench.controllers.ppo import PPOConfig
         from gdabench.controllers.ppo.networks import Stacked
         from gdabench.controllers.ppo.train import train
-        from gdabench.envs.batched import GymBodies
 
         config = PPOConfig(timesteps=timesteps, eval_interval=10 * timesteps)  # evaluation only at the end
         [result] = train(config, lambda n: GymBodies([make_env], n), [seed], device=torch.device("cpu"))
@@ -108,7 +119,20 @@ def run_one(side: str, body: str, timesteps: int, seed: int, episodes: int) -> d
 
 
 def _spawn(side: str, args: argparse.Namespace, seed: int) -> dict[str, Any]:
-    cmd = [sys.executable, __file__, "--one", side, "--body", args.body, "--timesteps", str(args.timesteps), "--seeds", str(seed), "--episodes", str(args.episodes)]
+    cmd = [
+        sys.executable,
+        __file__,
+        "--one",
+        side,
+        "--body",
+        args.body,
+        "--timesteps",
+        str(args.timesteps),
+        "--seeds",
+        str(seed),
+        "--episodes",
+        str(args.episodes),
+    ]
     done = subprocess.run(cmd, capture_output=True, text=True, check=False)
     lines = [line for line in done.stdout.splitlines() if line.startswith("{")]
     if done.returncode != 0 or not lines:
@@ -121,7 +145,9 @@ def main() -> None:
     parser.add_argument("--body", default=DEFAULT_BODY)
     parser.add_argument("--timesteps", type=int, default=50_000)
     parser.add_argument("--seeds", default="0,1,2")
-    parser.add_argument("--repeats", type=int, default=1, help="trainings per side and seed (throughput varies with the machine's load)")
+    parser.add_argument(
+        "--repeats", type=int, default=1, help="trainings per side and seed (throughput varies with the machine's load)"
+    )
     parser.add_argument("--episodes", type=int, default=5, help="evaluation episodes with sampled actions")
     parser.add_argument("--sides", default="sb3,gdabench", help="sb3, gdabench")
     parser.add_argument("--one", help=argparse.SUPPRESS)
@@ -131,7 +157,11 @@ def main() -> None:
         print(json.dumps(run_one(args.one, args.body, args.timesteps, seeds[0], args.episodes)))
         return
     sides = args.sides.split(",")
-    print(f"body {args.body}, {args.timesteps} timesteps, seeds {seeds} x {args.repeats}, sides alternate: {', '.join(sides)}", flush=True)
+    print(
+        f"body {args.body}, {args.timesteps} timesteps, seeds {seeds} x {args.repeats}, sides alternate: "
+        f"{', '.join(sides)}",
+        flush=True,
+    )
     rows = []
     for repeat in range(args.repeats):
         for seed in seeds:
@@ -141,7 +171,14 @@ def main() -> None:
                 print(json.dumps({k: round(v, 3) if isinstance(v, float) else v for k, v in row.items()}), flush=True)
     print(f"\nmedians over {len(seeds)} seeds x {args.repeats} repeats:")
     keys = ["steps_per_s", "steps_per_s_cpu", "reward", "reward_mean_action"]
-    medians = {side: {k: statistics.median(r[k] for r in rows if r["side"] == side) for k in keys if all(k in r for r in rows if r["side"] == side)} for side in sides}
+    medians = {
+        side: {
+            k: statistics.median(r[k] for r in rows if r["side"] == side)
+            for k in keys
+            if all(k in r for r in rows if r["side"] == side)
+        }
+        for side in sides
+    }
     for side, figures in medians.items():
         print(f"  {side:15s} " + "  ".join(f"{k}={v:.3f}" for k, v in figures.items()))
     if "sb3" in medians:
@@ -150,12 +187,20 @@ def main() -> None:
                 continue
             # each training against the SB3 training of the same seed and repeat, run next to it (same machine load)
             pairs = {(r["seed"], r["repeat"]): r for r in rows if r["side"] == "sb3"}
-            ratios = sorted(r["steps_per_s"] / pairs[r["seed"], r["repeat"]]["steps_per_s"] for r in rows if r["side"] == side)
-            cpu = statistics.median(r["steps_per_s_cpu"] / pairs[r["seed"], r["repeat"]]["steps_per_s_cpu"] for r in rows if r["side"] == side)
+            ratios = sorted(
+                r["steps_per_s"] / pairs[r["seed"], r["repeat"]]["steps_per_s"] for r in rows if r["side"] == side
+            )
+            cpu = statistics.median(
+                r["steps_per_s_cpu"] / pairs[r["seed"], r["repeat"]]["steps_per_s_cpu"]
+                for r in rows
+                if r["side"] == side
+            )
             speed = medians[side]["steps_per_s"] / medians["sb3"]["steps_per_s"]
             print(
-                f"  {side} / sb3: throughput x{speed:.2f} (ratio of medians); per pair median x{statistics.median(ratios):.2f}, "
-                f"lowest x{ratios[0]:.2f}; CPU-seconds x{cpu:.2f}; reward {medians[side]['reward']:.3f} vs {medians['sb3']['reward']:.3f}"
+                f"  {side} / sb3: throughput x{speed:.2f} (ratio of medians); per pair median "
+                f"x{statistics.median(ratios):.2f}, "
+                f"lowest x{ratios[0]:.2f}; CPU-seconds x{cpu:.2f}; reward {medians[side]['reward']:.3f} vs "
+                f"{medians['sb3']['reward']:.3f}"
             )
 
 

@@ -18,8 +18,8 @@ from pathlib import Path
 import pandas as pd
 
 from gdabench import Experiment, PluginChoice
-from gdabench.running.runner import compare
 from gdabench.report.build import write_report
+from gdabench.running.runner import compare
 
 
 def main() -> None:
@@ -43,7 +43,10 @@ def main() -> None:
             start = time.perf_counter()
             write_report(run_dir, Path(tmp) / f"report{i}")
             times.append(time.perf_counter() - start)
-    print(f"report of {run_dir} ({rows} rows): median {statistics.median(times):.2f} s, min {min(times):.2f} s, max {max(times):.2f} s over {len(times)} runs")
+    print(
+        f"report of {run_dir} ({rows} rows): median {statistics.median(times):.2f} s, min {min(times):.2f} "
+        f"s, max {max(times):.2f} s over {len(times)} runs"
+    )
 
 
 if __name__ == "__main__":

@@ -40,7 +40,13 @@ def main() -> None:
 
     scores = {"X": np.array(X), "Y": np.array(Y), "A": np.array(A), "B": np.array(B), "C": np.array(C)}
     taus = np.array(TAUS)
-    out: dict = {"reps": REPS, "poi_reps": POI_REPS, "taus": TAUS, "inputs": {k: v.tolist() for k, v in scores.items()}, "designers": {}}
+    out: dict = {
+        "reps": REPS,
+        "poi_reps": POI_REPS,
+        "taus": TAUS,
+        "inputs": {k: v.tolist() for k, v in scores.items()},
+        "designers": {},
+    }
     for name, matrix in scores.items():
         np.random.seed(0)
         iqm = lambda x: np.array([metrics.aggregate_iqm(x)])  # noqa: E731

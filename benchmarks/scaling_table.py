@@ -43,16 +43,16 @@ from typing import Sequence
 
 import numpy as np
 import pandas as pd
+from suite_runs import ensure_runs, run_dirs, stopped
 
 from gdabench import Experiment, PluginChoice, RunDirectory
 from gdabench.body import parse_shape
-from gdabench.config import parse_seeds
 from gdabench.errors import ConfigError, GdabenchError
 from gdabench.execution.options import Execution
-from gdabench.running.plan import Plan, file_name
+from gdabench.experiment.config import parse_seeds
+from gdabench.experiment.plan import Plan, file_name
 from gdabench.report.pairwise import a12, holm, magnitude, test_pair
-from gdabench.report.summary import per_run, thresholds
-from suite_runs import ensure_runs, run_dirs, stopped
+from gdabench.stats.summary import per_run, thresholds
 
 DEFAULT_ENVS = "target,nk[k=4]"
 DEFAULT_SIZES = "5x5,8x8,12x12"
@@ -102,15 +102,25 @@ def seed_rows(out: Path, shape: tuple[int, int]) -> pd.DataFrame:
     for (env, designer, seed), g in evaluations.groupby(["env", "designer", "seed"], sort=False):
         gens = g.groupby("generation").first()
         later = gens[gens.index >= 1]  # generation 0 is the random sampler for most designers
-        timing.append({
-            "env": env, "designer": designer, "seed": seed,
-            "design_s_per_gen": float(later["design_seconds"].median()) if "design_seconds" in later and len(later) else math.nan,
-            "train_s_per_gen": float(later["train_seconds"].median()) if "train_seconds" in later and later["train_seconds"].notna().any() else math.nan,
-            "sample_s_per_gen": float(later["sample_seconds"].median()) if "sample_seconds" in later and later["sample_seconds"].notna().any() else math.nan,
-            "wall_s": float(g["elapsed_seconds"].max()),
-            "generations": int(len(gens)),
-            "finished": int(g["n_evals"].max()) >= int(run.meta["config"]["budget"]),
-        })
+        timing.append(
+            {
+                "env": env,
+                "designer": designer,
+                "seed": seed,
+                "design_s_per_gen": float(later["design_seconds"].median())
+                if "design_seconds" in later and len(later)
+                else math.nan,
+                "train_s_per_gen": float(later["train_seconds"].median())
+                if "train_seconds" in later and later["train_seconds"].notna().any()
+                else math.nan,
+                "sample_s_per_gen": float(later["sample_seconds"].median())
+                if "sample_seconds" in later and later["sample_seconds"].notna().any()
+                else math.nan,
+                "wall_s": float(g["elapsed_seconds"].max()),
+                "generations": int(len(gens)),
+                "finished": int(g["n_evals"].max()) >= int(run.meta["config"]["budget"]),
+            }
+        )
     rows = rows.merge(pd.DataFrame(timing), on=["env", "designer", "seed"], how="left")
     rows["optimum"] = rows["env"].map(lambda e: best.get(e, (None, "unknown"))[0])
     rows["optimum_kind"] = rows["env"].map(lambda e: best.get(e, (None, "unknown"))[1])
@@ -123,7 +133,9 @@ def seed_rows(out: Path, shape: tuple[int, int]) -> pd.DataFrame:
     return rows
 
 
-def collect(root: Path, designers: Sequence[PluginChoice], shapes: Sequence[tuple[int, int]], envs: Sequence[PluginChoice]) -> pd.DataFrame:
+def collect(
+    root: Path, designers: Sequence[PluginChoice], shapes: Sequence[tuple[int, int]], envs: Sequence[PluginChoice]
+) -> pd.DataFrame:
     """Per-seed rows of every finished trial of the existing runs, environments in the order given."""
     frames = []
     for shape in shapes:
@@ -135,7 +147,10 @@ def collect(root: Path, designers: Sequence[PluginChoice], shapes: Sequence[tupl
     rows = pd.concat(frames, ignore_index=True)
     unfinished = rows[~rows["finished"].astype(bool)]
     for _, r in unfinished.iterrows():  # a trial cut short would flatter nobody's gap: left out, said
-        print(f"note: {r['designer']} at {r['shape']} on {r['env']} seed {r['seed']} is unfinished; left out", file=sys.stderr)
+        print(
+            f"note: {r['designer']} at {r['shape']} on {r['env']} seed {r['seed']} is unfinished; left out",
+            file=sys.stderr,
+        )
     rows = rows[rows["finished"].astype(bool)]
     return rows[rows["env"].isin([e.label for e in envs])]
 
@@ -154,27 +169,41 @@ def gap_table(rows: pd.DataFrame, envs: Sequence[PluginChoice], designers: Seque
                 if g.empty:
                     continue
                 q1, med, q3 = np.percentile(g["gap"], [25, 50, 75])
-                out.append({
-                    "env": env, "shape": shape, "voxels": voxels, "population": int(g["population"].iloc[0]),
-                    "budget": int(g["budget"].iloc[0]), "optimum": float(g["optimum"].iloc[0]),
-                    "optimum_kind": g["optimum_kind"].iloc[0], "designer": d, "seeds": len(g),
-                    "seed_list": ",".join(str(s) for s in sorted(g["seed"])), "gap_median": med, "gap_q1": q1, "gap_q3": q3,
-                    "best_median": float(g["best_reward"].median()), "wall_s_median": float(g["wall_s"].median()),
-                    "status": "complete" if (g["status"] == "complete").all() else "incomplete",
-                })
+                out.append(
+                    {
+                        "env": env,
+                        "shape": shape,
+                        "voxels": voxels,
+                        "population": int(g["population"].iloc[0]),
+                        "budget": int(g["budget"].iloc[0]),
+                        "optimum": float(g["optimum"].iloc[0]),
+                        "optimum_kind": g["optimum_kind"].iloc[0],
+                        "designer": d,
+                        "seeds": len(g),
+                        "seed_list": ",".join(str(s) for s in sorted(g["seed"])),
+                        "gap_median": med,
+                        "gap_q1": q1,
+                        "gap_q3": q3,
+                        "best_median": float(g["best_reward"].median()),
+                        "wall_s_median": float(g["wall_s"].median()),
+                        "status": "complete" if (g["status"] == "complete").all() else "incomplete",
+                    }
+                )
     return pd.DataFrame(out)
 
 
 def gap_markdown(table: pd.DataFrame) -> str:
     lines = [
-        "| env | shape (voxels) | population, budget | optimum | designer | seeds | gap: median (IQR) | best reward (median) | wall s per seed (median) |",
+        "| env | shape (voxels) | population, budget | optimum | designer | seeds | gap: median (IQR) | best "
+        "reward (median) | wall s per seed (median) |",
         "|---|---|---|---:|---|---:|---:|---:|---:|",
     ]
     for _, r in table.iterrows():
         bound = "" if r["optimum_kind"] == "optimum" else f" ({r['optimum_kind']})"
         note = "" if r["status"] == "complete" else " (incomplete)"
         lines.append(
-            f"| {r['env']} | {r['shape']} ({r['voxels']}) | {r['population']}, {r['budget']:,} | {r['optimum']:.2f}{bound} | "
+            f"| {r['env']} | {r['shape']} ({r['voxels']}) | {r['population']}, {r['budget']:,} | "
+            f"{r['optimum']:.2f}{bound} | "
             f"{r['designer']}{note} | {r['seeds']} | {fmt(r['gap_median'])} ({fmt(r['gap_q1'])}-{fmt(r['gap_q3'])}) | "
             f"{r['best_median']:.2f} | {r['wall_s_median']:.1f} |"
         )
@@ -190,7 +219,13 @@ def paired(rows: pd.DataFrame, env: str, shape: str, a: str, b: str) -> pd.DataF
     return wide[[a, b]].dropna()
 
 
-def comparisons(rows: pd.DataFrame, envs: Sequence[PluginChoice], designers: Sequence[PluginChoice], baseline: str, alpha: float = 0.05) -> pd.DataFrame:
+def comparisons(
+    rows: pd.DataFrame,
+    envs: Sequence[PluginChoice],
+    designers: Sequence[PluginChoice],
+    baseline: str,
+    alpha: float = 0.05,
+) -> pd.DataFrame:
     """Each designer against the baseline per (env, shape), and the change of that difference
     from the smallest shape to each larger one; Holm over each designer's rows."""
     shapes = [s for _, s in sorted({(v, s) for v, s in zip(rows["voxels"], rows["shape"])})]
@@ -202,11 +237,18 @@ def comparisons(rows: pd.DataFrame, envs: Sequence[PluginChoice], designers: Seq
                 if len(pair) == 0:
                     continue
                 name, stat, p = test_pair(pair[d], pair[baseline], paired=True)
-                out.append({
-                    "env": env, "designer": d, "what": shape, "pairs": len(pair), "test": name,
-                    "difference": float((pair[d] - pair[baseline]).median()),
-                    "p": p, "a12": a12(-pair[d], -pair[baseline]),  # P(designer's gap < baseline's)
-                })
+                out.append(
+                    {
+                        "env": env,
+                        "designer": d,
+                        "what": shape,
+                        "pairs": len(pair),
+                        "test": name,
+                        "difference": float((pair[d] - pair[baseline]).median()),
+                        "p": p,
+                        "a12": a12(-pair[d], -pair[baseline]),  # P(designer's gap < baseline's)
+                    }
+                )
             small = paired(rows, env, shapes[0], d, baseline)
             for shape in shapes[1:]:
                 large = paired(rows, env, shape, d, baseline)
@@ -215,11 +257,18 @@ def comparisons(rows: pd.DataFrame, envs: Sequence[PluginChoice], designers: Seq
                     lead_small = small.loc[common, d] - small.loc[common, baseline]
                     lead_large = large.loc[common, d] - large.loc[common, baseline]
                     name, stat, p = test_pair(lead_large, lead_small, paired=True)
-                    out.append({
-                        "env": env, "designer": d, "what": f"{shape} vs {shapes[0]}", "pairs": len(common), "test": name,
-                        "difference": float((lead_large - lead_small).median()), "p": p,
-                        "a12": a12(-lead_large, -lead_small),  # P(the gap difference is smaller at the large shape)
-                    })
+                    out.append(
+                        {
+                            "env": env,
+                            "designer": d,
+                            "what": f"{shape} vs {shapes[0]}",
+                            "pairs": len(common),
+                            "test": name,
+                            "difference": float((lead_large - lead_small).median()),
+                            "p": p,
+                            "a12": a12(-lead_large, -lead_small),  # P(the gap difference is smaller at the large shape)
+                        }
+                    )
     table = pd.DataFrame(out)
     if not table.empty:  # one family per designer: its rows answer "does it scale better than the baseline?"
         table["p_holm"] = table.groupby("designer", sort=False)["p"].transform(lambda p: holm(p.to_numpy()))
@@ -230,12 +279,14 @@ def comparisons(rows: pd.DataFrame, envs: Sequence[PluginChoice], designers: Seq
 
 def comparison_markdown(table: pd.DataFrame, baseline: str) -> str:
     lines = [
-        f"| env | designer | shape | seeds paired | gap difference to {baseline} (median) | Wilcoxon p | Holm p | A12 | |",
+        f"| env | designer | shape | seeds paired | gap difference to {baseline} (median) | Wilcoxon p | "
+        "Holm p | A12 | |",
         "|---|---|---|---:|---:|---:|---:|---:|---|",
     ]
     for _, r in table.iterrows():
         lines.append(
-            f"| {r['env']} | {r['designer']} | {r['what']} | {r['pairs']} | {r['difference']:+.3f} | {fmt(r['p'])} | {fmt(r['p_holm'])} | "
+            f"| {r['env']} | {r['designer']} | {r['what']} | {r['pairs']} | {r['difference']:+.3f} | "
+            f"{fmt(r['p'])} | {fmt(r['p_holm'])} | "
             f"{fmt(r['a12'], 2)} | {r['magnitude']}{', significant' if r['significant'] else ''} |"
         )
     return "\n".join(lines)
@@ -248,31 +299,48 @@ def time_table(rows: pd.DataFrame, designers: Sequence[PluginChoice]) -> pd.Data
             sel = g[g["designer"] == d]
             if sel.empty:
                 continue
-            out.append({
-                "designer": d, "shape": shape, "voxels": voxels, "trials": len(sel),
-                "design_s_per_gen": float(sel["design_s_per_gen"].median()),
-                "train_s_per_gen": float(sel["train_s_per_gen"].median()),
-                "sample_s_per_gen": float(sel["sample_s_per_gen"].median()),
-                "wall_s": float(sel["wall_s"].median()),
-                "generations": float(sel["generations"].median()),
-            })
-    return pd.DataFrame(out).sort_values(["designer", "voxels"], kind="stable", key=lambda c: c.map({d.label: i for i, d in enumerate(designers)}) if c.name == "designer" else c)
+            out.append(
+                {
+                    "designer": d,
+                    "shape": shape,
+                    "voxels": voxels,
+                    "trials": len(sel),
+                    "design_s_per_gen": float(sel["design_s_per_gen"].median()),
+                    "train_s_per_gen": float(sel["train_s_per_gen"].median()),
+                    "sample_s_per_gen": float(sel["sample_s_per_gen"].median()),
+                    "wall_s": float(sel["wall_s"].median()),
+                    "generations": float(sel["generations"].median()),
+                }
+            )
+    return pd.DataFrame(out).sort_values(
+        ["designer", "voxels"],
+        kind="stable",
+        key=lambda c: c.map({d.label: i for i, d in enumerate(designers)}) if c.name == "designer" else c,
+    )
 
 
 def time_markdown(table: pd.DataFrame) -> str:
     lines = [
-        "| designer | shape | trials | generations | designer s per generation | gda: training s | gda: sampling s | wall s per trial |",
+        "| designer | shape | trials | generations | designer s per generation | gda: training s | gda: "
+        "sampling s | wall s per trial |",
         "|---|---|---:|---:|---:|---:|---:|---:|",
     ]
     for _, r in table.iterrows():
         lines.append(
-            f"| {r['designer']} | {r['shape']} | {r['trials']} | {r['generations']:.0f} | {fmt(r['design_s_per_gen'], 3)} | {fmt(r['train_s_per_gen'], 2)} | "
+            f"| {r['designer']} | {r['shape']} | {r['trials']} | {r['generations']:.0f} | "
+            f"{fmt(r['design_s_per_gen'], 3)} | {fmt(r['train_s_per_gen'], 2)} | "
             f"{fmt(r['sample_s_per_gen'], 2)} | {r['wall_s']:.1f} |"
         )
     return "\n".join(lines)
 
 
-def plot(table: pd.DataFrame, envs: Sequence[PluginChoice], designers: Sequence[PluginChoice], path: Path, evals_per_voxel: int) -> None:
+def plot(
+    table: pd.DataFrame,
+    envs: Sequence[PluginChoice],
+    designers: Sequence[PluginChoice],
+    path: Path,
+    evals_per_voxel: int,
+) -> None:
     """Gap against voxels per designer (median with the interquartile range), a panel per env."""
     import matplotlib
 
@@ -301,7 +369,10 @@ def plot(table: pd.DataFrame, envs: Sequence[PluginChoice], designers: Sequence[
         ax.set_title(env)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-    fig.suptitle(f"Median gap over seeds (band: interquartile range); budget {evals_per_voxel} evaluations per voxel", fontsize=10)
+    fig.suptitle(
+        f"Median gap over seeds (band: interquartile range); budget {evals_per_voxel} evaluations per voxel",
+        fontsize=10,
+    )
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
@@ -310,12 +381,18 @@ def plot(table: pd.DataFrame, envs: Sequence[PluginChoice], designers: Sequence[
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--designers", default="ga,cppn,random,gda-fast", help="comma-separated designers (labels may carry [params])")
+    parser.add_argument(
+        "--designers", default="ga,cppn,random,gda-fast", help="comma-separated designers (labels may carry [params])"
+    )
     parser.add_argument("--envs", default=DEFAULT_ENVS, help=f"comma-separated environments (default {DEFAULT_ENVS})")
-    parser.add_argument("--shapes", default=DEFAULT_SIZES, help=f"comma-separated body shapes HxW (default {DEFAULT_SIZES})")
+    parser.add_argument(
+        "--shapes", default=DEFAULT_SIZES, help=f"comma-separated body shapes HxW (default {DEFAULT_SIZES})"
+    )
     parser.add_argument("--seeds", default="0..9")
     parser.add_argument("--evals-per-voxel", type=int, default=40, help="budget = voxels x this (default 40)")
-    parser.add_argument("--bodies-per-voxel", type=float, default=1.0, help="population = voxels x this (default 1: 40 generations)")
+    parser.add_argument(
+        "--bodies-per-voxel", type=float, default=1.0, help="population = voxels x this (default 1: 40 generations)"
+    )
     parser.add_argument("--baseline", default="ga", help="designer the others are tested against (default ga)")
     parser.add_argument("--jobs", type=int, default=None, help="trials at once (default: the harness's, one per core)")
     parser.add_argument("--root", type=Path, default=Path("results/scaling"), help="where the run directories live")
@@ -338,11 +415,15 @@ def main(argv: list[str] | None = None) -> int:
             for shape in shapes:
                 population, budget = scaled(shape, args.evals_per_voxel, args.bodies_per_voxel)
                 for d in designers:
-                    experiment = Experiment((d,), tuple(envs), shape=shape, population=population, budget=budget, seeds=seeds)
+                    experiment = Experiment(
+                        (d,), tuple(envs), shape=shape, population=population, budget=budget, seeds=seeds
+                    )
                     Plan.resolve(experiment)  # check every name and parameter before spending time on runs
                     runs.append((args.root / shape_text(shape) / file_name(d.label), experiment))
             for out, experiment in runs:
-                ensure_runs(out, experiment, execution, f"{experiment.designers[0].label} at {shape_text(experiment.shape)}")
+                ensure_runs(
+                    out, experiment, execution, f"{experiment.designers[0].label} at {shape_text(experiment.shape)}"
+                )
         rows = collect(args.root, designers, shapes, envs)
     except (GdabenchError, KeyboardInterrupt) as exc:
         return stopped(exc)
@@ -356,9 +437,13 @@ def main(argv: list[str] | None = None) -> int:
         tests = comparisons(rows, envs, designers, args.baseline)
         if not tests.empty:
             print(f"\n### Against {args.baseline}, paired by seed\n")
-            print(f"Difference: designer's gap minus {args.baseline}'s (negative: closer to the optimum). A12: the chance that the "
-                  f"designer's gap is the smaller (0.5: no effect); on the 'large vs small' rows, that its difference to {args.baseline} "
-                  "is smaller at the large shape. Holm over each designer's rows.\n")
+            print(
+                f"Difference: designer's gap minus {args.baseline}'s (negative: closer to the optimum). A12: "
+                "the chance that the "
+                "designer's gap is the smaller (0.5: no effect); on the 'large vs small' rows, that its "
+                f"difference to {args.baseline} "
+                "is smaller at the large shape. Holm over each designer's rows.\n"
+            )
             print(comparison_markdown(tests, args.baseline))
     print("\n### Time per generation\n")
     print(time_markdown(time_table(rows, designers)))

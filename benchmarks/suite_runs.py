@@ -13,9 +13,9 @@ from dataclasses import replace
 from pathlib import Path
 
 from gdabench import Experiment, RunDirectory
-from gdabench.config import format_seeds
 from gdabench.errors import ConfigError, GdabenchError, RunFailure, Terminated
 from gdabench.execution.options import Execution
+from gdabench.experiment.config import format_seeds
 from gdabench.running.runner import compare
 
 
@@ -24,7 +24,9 @@ def run_dirs(out: Path) -> list[Path]:
     return [d for d in [out, *sorted(out.parent.glob(f"{glob.escape(out.name)}.seeds-*"))] if (d / "run.json").exists()]
 
 
-def ensure_runs(out: Path, experiment: Experiment, execution: Execution | None = None, label: str | None = None) -> list[Path]:
+def ensure_runs(
+    out: Path, experiment: Experiment, execution: Execution | None = None, label: str | None = None
+) -> list[Path]:
     """Resume the interrupted runs of the designer holding seeds asked for, then add the seeds that no
     run holds yet to the run in ``out`` (so work started is finished first); the run directories."""
     label = label or experiment.designers[0].label
@@ -32,7 +34,9 @@ def ensure_runs(out: Path, experiment: Experiment, execution: Execution | None =
     runs = {path: Experiment.from_json(meta["config"]) for path, meta in metas.items()}
     for path, config in runs.items():
         if replace(config, seeds=experiment.seeds) != experiment:
-            raise ConfigError(f"{path} holds a run with other settings (environments, budget or population); use another --root")
+            raise ConfigError(
+                f"{path} holds a run with other settings (environments, budget or population); use another --root"
+            )
     held = {seed for config in runs.values() for seed in config.seeds}
     missing = tuple(seed for seed in experiment.seeds if seed not in held)
     if out not in runs:
@@ -43,7 +47,10 @@ def ensure_runs(out: Path, experiment: Experiment, execution: Execution | None =
     for path, config in sorted(runs.items(), key=lambda item: item[0] == out):  # finish older runs before adding seeds
         added = missing if path == out else ()
         if added or (metas[path].get("status") != "complete" and set(config.seeds) & set(experiment.seeds)):
-            print(f"resuming {label} in {path}" + (f", adding seeds {format_seeds(added)}" if added else ""), file=sys.stderr)
+            print(
+                f"resuming {label} in {path}" + (f", adding seeds {format_seeds(added)}" if added else ""),
+                file=sys.stderr,
+            )
             compare(replace(config, seeds=config.seeds + added), path, resume=True, execution=execution)
     return run_dirs(out)
 

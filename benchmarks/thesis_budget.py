@@ -90,10 +90,10 @@ def train_chunk(bodies: list[str], budget: int, seed: int) -> tuple[list, float,
     from gdabench import seeding
     from gdabench.body import Body
     from gdabench.execution.evaluation import evaluate_batch
-    from gdabench.execution.tasks import EvalTask
-    from gdabench.experiment_build import build_run
+    from gdabench.experiment.build import build_run
+    from gdabench.experiment.plan import Plan
     from gdabench.plugins import registry
-    from gdabench.running.plan import Plan
+    from gdabench.strategy import EvalTask
 
     experiment = build_run({"designers": "random", "env": "walker", "controller": f"ppo[timesteps={budget}]",
                             "population": 1, "budget": 1}).experiment  # fmt: skip

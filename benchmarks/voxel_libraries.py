@@ -63,11 +63,11 @@ atexit.register(shutil.rmtree, _CACHE, ignore_errors=True)
 os.environ.setdefault("TORCHINDUCTOR_CACHE_DIR", os.path.join(_CACHE, "inductor"))
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import numba
-import numpy as np
+import numba  # noqa: E402 - after the thread and cache settings above
+import numpy as np  # noqa: E402 - after the thread and cache settings above
 
-import gdabench
-from gdabench.envs.voxel import engine
+import gdabench  # noqa: E402 - after the thread and cache settings above
+from gdabench.envs.voxel import engine  # noqa: E402 - after the thread and cache settings above
 
 DT = 1e-4
 SUBSTEPS = 30

@@ -48,9 +48,9 @@ import numpy as np
 
 import gdabench
 from gdabench.controllers.open_loop import Pattern
-from gdabench.errors import ConfigError
 from gdabench.envs.walker.env import ENGINES
 from gdabench.envs.walker.sim import WalkerPhysics
+from gdabench.errors import ConfigError
 
 STEPS = 500
 VOXEL = 0.1
@@ -115,7 +115,9 @@ def body_set(seed: int, n_random: int) -> list[Case]:
         random.seed(body_seed)
         np.random.seed(body_seed % 2**32)
         voxels, _ = sample_robot((5, 5))
-        cases.append(Case(gdabench.Body(voxels.astype(int)).text, "calibration" if i % 2 == 0 else "held-out", body_seed))
+        cases.append(
+            Case(gdabench.Body(voxels.astype(int)).text, "calibration" if i % 2 == 0 else "held-out", body_seed)
+        )
     for i, text in enumerate(STRUCTURED):
         cases.append(Case(text, "calibration" if i % 2 == 0 else "held-out", seed * 1_000_003 + 500_000 + i))
     return cases
@@ -223,7 +225,10 @@ def table(rows: list[dict[str, Any]]) -> dict[str, float]:
 
 def print_table(name: str, t: dict[str, float], per_gait: dict[str, float]) -> None:
     print(f"{name}: {t['bodies']} bodies, {t['episodes']} episodes")
-    print(f"  return Spearman {t['spearman']:.3f}   Pearson {t['pearson']:.3f}   sign agreement {100 * t['sign_agreement']:.1f}%")
+    print(
+        f"  return Spearman {t['spearman']:.3f}   Pearson {t['pearson']:.3f}   sign agreement "
+        f"{100 * t['sign_agreement']:.1f}%"
+    )
     print(f"  positive returns: ours {100 * t['positive_ours']:.1f}%, Evolution Gym {100 * t['positive_evogym']:.1f}%")
     print(f"  centre-of-mass x trajectory gap (RMS, median over episodes): {t['trajectory_gap_voxels']:.2f} voxels")
     print(
@@ -247,11 +252,22 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--part", choices=("all", "calibration", "held-out"), default="all")
     parser.add_argument("--gaits", default=",".join(GAITS), help="comma-separated names from: " + ", ".join(GAITS))
     parser.add_argument("--no-structured", action="store_true", help="random bodies only")
-    parser.add_argument("--engine", choices=tuple(ENGINES), default="voxel", help="which walker to check (default: voxel)")
-    parser.add_argument("--physics", nargs="*", default=[], metavar="KEY=VALUE", help="override WalkerPhysics fields (pymunk)")
-    parser.add_argument("--evogym-cache", type=Path, help="JSON lines file of Evolution Gym episodes to reuse and extend")
+    parser.add_argument(
+        "--engine", choices=tuple(ENGINES), default="voxel", help="which walker to check (default: voxel)"
+    )
+    parser.add_argument(
+        "--physics", nargs="*", default=[], metavar="KEY=VALUE", help="override WalkerPhysics fields (pymunk)"
+    )
+    parser.add_argument(
+        "--evogym-cache", type=Path, help="JSON lines file of Evolution Gym episodes to reuse and extend"
+    )
     parser.add_argument("--json", type=Path, help="write every episode of both simulators here")
-    parser.add_argument("--shard", default="0/1", metavar="K/N", help="play only bodies K, K+N, K+2N, ... of the set (to fill a cache in parallel)")
+    parser.add_argument(
+        "--shard",
+        default="0/1",
+        metavar="K/N",
+        help="play only bodies K, K+N, K+2N, ... of the set (to fill a cache in parallel)",
+    )
     args = parser.parse_args(argv)
     gaits = args.gaits.split(",")
     unknown = [g for g in gaits if g not in GAITS]
@@ -266,7 +282,10 @@ def main(argv: list[str] | None = None) -> None:
     try:
         cases = body_set(args.seed, args.random_bodies)
     except ImportError as exc:
-        print(f"error: Evolution Gym is not installed ({exc}); run this in plugins/gdabench-evogym's venv", file=sys.stderr)
+        print(
+            f"error: Evolution Gym is not installed ({exc}); run this in plugins/gdabench-evogym's venv",
+            file=sys.stderr,
+        )
         raise SystemExit(2) from None
     if args.no_structured:
         cases = [c for c in cases if c.seed - args.seed * 1_000_003 < 500_000]
@@ -295,9 +314,16 @@ def main(argv: list[str] | None = None) -> None:
             rows.append({"body": case.body, "part": case.part, "gait": gait, "ours": ours, "evogym": theirs})
     if cache_out is not None:
         cache_out.close()
-    print(f"gdabench {ENGINES[args.engine]} against Evolution Gym 2.0 Walker-v0; seed {args.seed}, {args.steps} steps, gaits {', '.join(gaits)}")
+    print(
+        f"gdabench {ENGINES[args.engine]} against Evolution Gym 2.0 Walker-v0; seed {args.seed}, "
+        f"{args.steps} steps, gaits {', '.join(gaits)}"
+    )
     if args.engine == "pymunk":
-        changed = {f.name: getattr(physics, f.name) for f in fields(WalkerPhysics) if getattr(physics, f.name) != getattr(WalkerPhysics(), f.name)}
+        changed = {
+            f.name: getattr(physics, f.name)
+            for f in fields(WalkerPhysics)
+            if getattr(physics, f.name) != getattr(WalkerPhysics(), f.name)
+        }
         print(f"physics: WalkerPhysics defaults{' with ' + json.dumps(changed) if changed else ''}")
     for part in ("calibration", "held-out"):
         part_rows = [r for r in rows if r["part"] == part]
@@ -306,7 +332,10 @@ def main(argv: list[str] | None = None) -> None:
             print_table(part, table(part_rows), per_gait)
     (n_ours, s_ours), (n_evo, s_evo) = timing["ours"], timing["evogym"]
     if n_evo:
-        print(f"speed (env steps/s, one process, episodes interleaved): Evolution Gym {n_evo / s_evo:.0f}, ours {n_ours / s_ours:.0f}, ratio {(n_ours / s_ours) / (n_evo / s_evo):.2f}")
+        print(
+            f"speed (env steps/s, one process, episodes interleaved): Evolution Gym {n_evo / s_evo:.0f}, "
+            f"ours {n_ours / s_ours:.0f}, ratio {(n_ours / s_ours) / (n_evo / s_evo):.2f}"
+        )
     else:
         print(f"speed: ours {n_ours / s_ours:.0f} env steps/s (Evolution Gym's episodes came from the cache: no ratio)")
     if args.json:

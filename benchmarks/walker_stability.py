@@ -29,9 +29,9 @@ import numpy as np
 
 import gdabench
 from gdabench.controllers.open_loop import OpenLoop
-from gdabench.errors import ConfigError
 from gdabench.envs.walker.env import ENGINES
 from gdabench.envs.walker.sim import WalkerPhysics
+from gdabench.errors import ConfigError
 
 #: per-step centre-of-mass motion no stable simulation produces (100 m/s, max_speed, for 0.003 s)
 IMPLAUSIBLE_STEP = 0.3
@@ -107,7 +107,9 @@ def main() -> None:
     parser.add_argument("--shape", default="5x5")
     parser.add_argument("--actions", choices=("random", "open-loop"), default="random")
     parser.add_argument("--engine", choices=(*ENGINES, "evogym"), default="voxel")
-    parser.add_argument("--physics", nargs="*", default=[], metavar="KEY=VALUE", help="override WalkerPhysics fields (pymunk)")
+    parser.add_argument(
+        "--physics", nargs="*", default=[], metavar="KEY=VALUE", help="override WalkerPhysics fields (pymunk)"
+    )
     args = parser.parse_args()
     try:
         physics = WalkerPhysics().with_overrides(args.physics)
@@ -138,7 +140,10 @@ def main() -> None:
                 examples.setdefault(key, body.text)
     seconds = time.perf_counter() - start
     unstable = sum(reasons.values())
-    print(f"{ENGINES.get(args.engine, 'Evolution Gym 2.0 Walker-v0')}: {args.bodies} bodies ({args.shape}), {args.actions} actions, {args.steps} steps each, seed {args.seed}")
+    print(
+        f"{ENGINES.get(args.engine, 'Evolution Gym 2.0 Walker-v0')}: {args.bodies} bodies ({args.shape}), "
+        f"{args.actions} actions, {args.steps} steps each, seed {args.seed}"
+    )
     print(f"unstable episodes: {unstable} ({100.0 * unstable / args.bodies:.2f}%)")
     for reason, count in reasons.most_common():
         print(f"  {count:5d}  {reason}  (e.g. {examples[reason]})")

@@ -9,7 +9,6 @@ from typing import Any
 
 from . import cpu as _cpu  # noqa: F401 - first: pins torch's kernels before anything imports torch (gdabench.cpu)
 from .body import DEFAULT_SHAPE, EMPTY, H_ACT, RIGID, SOFT, V_ACT, Body, as_body, is_valid, mutate, random_body
-from .config import Experiment, PluginChoice
 from .designer import Designer, ranking_rewards, top_k
 from .environment import Controller, Environment, Evaluation
 from .envs import (
@@ -25,16 +24,25 @@ from .errors import (
     RunDirectoryError,
     UnknownPluginError,
 )
-from .execution.evaluation import report_progress
-from .hookspecs import hookimpl
+from .experiment.config import Experiment, PluginChoice
 from .plugins import registry
+from .sdk import report_progress
 from .seeding import designer_seed
-from .specs import ControllerSpec, DesignerSpec, EnvironmentSpec
+from .specs import ControllerSpec, DesignerSpec, EnvironmentSpec, hookimpl
 
 __version__ = "0.1.0"
 
 
-_LAZY = {"compare": "api", "open_run": "api", "Run": "api", "RunDirectory": "results", "RunListener": "running.events"}
+_LAZY = {
+    "compare": "api",
+    "open_run": "api",
+    "Run": "api",
+    "RunDirectory": "results",
+    "RunListener": "running.events",
+    # the event hooks' payloads (gdabench.hookspecs): public types
+    "GenerationReport": "hookspecs",
+    "TrialSpec": "experiment.trial_spec",
+}
 
 
 def __getattr__(name: str) -> Any:

@@ -1,7 +1,7 @@
 """The Python entry points for notebooks and scripts: :func:`compare` and :func:`open_run`.
 
 They take what the command line takes (strings such as ``"ga,gda[epochs=50]"``, or
-:class:`~gdabench.config.PluginChoice` objects) and return a :class:`Run`, whose tables are
+:class:`~gdabench.experiment.config.PluginChoice` objects) and return a :class:`Run`, whose tables are
 pandas DataFrames::
 
     import gdabench
@@ -20,13 +20,13 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import pandas as pd
 
-from .config import PluginChoice
 from .execution.options import Execution
-from .experiment_build import DEFAULTS, Choices, RunSetup, build_run
+from .experiment.build import DEFAULTS, Choices, RunSetup, build_run, significance_warnings
+from .experiment.config import PluginChoice
 from .plugins import Registry
-from .results import RunDirectory
+from .results import RunDirectory, load_reevaluations
 from .running.events import RunListener
-from .running.runner import compare as run_experiment
+from .running.runner import execute
 
 
 @dataclass(frozen=True)
@@ -51,16 +51,14 @@ class Run:
     def summary(self, threshold: float | None = None) -> pd.DataFrame:
         """One row per (designer, environment, controller): best reward, evaluations to the
         threshold (default: each environment's optimum), wall time, with bootstrap intervals."""
-        from .report.summary import summarize, thresholds
-        from .running.reevaluation import load
+        from .stats.summary import summarize, thresholds
 
-        return summarize(self.evaluations(), thresholds(self.meta, threshold), reevaluations=load(self.path))
+        again = load_reevaluations(self.path)
+        return summarize(self.evaluations(), thresholds(self.meta, threshold), reevaluations=again)
 
     def reevaluations(self) -> pd.DataFrame:
         """One row per re-evaluation of a trial's final best bodies (see :mod:`gdabench.running.reevaluation`)."""
-        from .running.reevaluation import load
-
-        return load(self.path)
+        return load_reevaluations(self.path)
 
     def report(self, out: str | Path | None = None, **options: Any) -> Path:
         """Write the report (see :func:`gdabench.report.build.write_report`); the path of report.html."""
@@ -111,8 +109,6 @@ def compare(
          **(execution.to_json() if execution is not None else {})},
         reg=reg,
     )  # fmt: skip
-    from .report.power import significance_warnings
-
     for line in significance_warnings(setup.experiment):  # what the seeds cannot show, before the run
         warnings.warn(line, UserWarning, stacklevel=2)
     if progress and listener is None:
@@ -124,4 +120,4 @@ def compare(
 
 
 def _run(setup: RunSetup, listener: RunListener | None, reg: Registry | None) -> Run:
-    return Run(run_experiment(setup.experiment, setup.out, execution=setup.execution, listener=listener, reg=reg).path)
+    return Run(execute(setup, listener=listener, reg=reg).path)

@@ -23,17 +23,17 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from .config import PluginChoice, format_seeds
 from .errors import ConfigError, GdabenchError, RunFailure, Terminated
-from .experiment_build import DEFAULTS, OPTIONS, RunSetup, build_run
+from .experiment.build import DEFAULTS, OPTIONS, RunSetup, build_run, significance_warnings
+from .experiment.config import PluginChoice, format_seeds
 from .loggers import make_logger
 from .plugins import KINDS, registry
 from .report.diversity import NEAR_COPY, SURVIVORS
-from .report.summary import failure_counts, nothing_measured, summarize, thresholds
 from .report.tables import summary_cells
-from .results import RunDirectory, is_file
+from .results import RunDirectory, is_file, load_reevaluations
 from .running.progress import ProgressDisplay
-from .running.runner import compare as run_compare
+from .running.runner import execute
+from .stats.summary import failure_counts, nothing_measured, summarize, thresholds
 
 try:  # typer >= 0.2x carries its own copy of click
     from typer._click import exceptions as click_errors
@@ -181,7 +181,7 @@ class RunOptions:
     """The options ``compare`` and ``run`` share (typer reads them from :data:`RUN_OPTIONS`).
 
     ``explicit`` names the options given on the command line: they override an experiment file
-    (``--config``), which overrides the defaults (see :func:`~gdabench.experiment_build.build_run`).
+    (``--config``), which overrides the defaults (see :func:`~gdabench.experiment.build.build_run`).
     """
 
     config: Optional[Path] = None
@@ -213,7 +213,7 @@ class RunOptions:
     explicit: frozenset[str] = frozenset()  # filled in by with_run_options
 
     def given(self, designers: str) -> dict[str, Any]:
-        """What the user gave, for :func:`~gdabench.experiment_build.build_run` to fill in the rest."""
+        """What the user gave, for :func:`~gdabench.experiment.build.build_run` to fill in the rest."""
         given = {name: getattr(self, name) for name in self.explicit & OPTIONS}
         return {**given, "designers": designers} if designers else given
 
@@ -317,18 +317,14 @@ def _execute(designers: str, options: RunOptions) -> None:
     with guard:
         setup = build_run(options.given(designers))
         guard.run_dir = setup.out
-        from .report.power import significance_warnings  # scipy: only once a run is asked for
-
         for line in significance_warnings(setup.experiment):
             err_console.print(f"[yellow]warning:[/] {escape(line)}", highlight=False, soft_wrap=True)
-        done = RunDirectory.open(setup.out).evaluations_made() if options.resume is not None else {}
+        done = setup.resumed.evaluations_made() if setup.resumed is not None else {}
         reg = registry()
         for name in dict.fromkeys(options.log or []):
             reg.pm.register(make_logger(name), name=f"gdabench-log-{name}")
         with ProgressDisplay(setup.experiment, done, console=err_console, quiet=options.quiet) as display:
-            run = run_compare(setup.experiment, setup.out, resume=options.resume is not None,
-                              execution=setup.execution, listener=display, command=["gdabench", *sys.argv[1:]],
-                              reg=reg)  # fmt: skip
+            run = execute(setup, listener=display, command=["gdabench", *sys.argv[1:]], reg=reg)
         for env, reason in _uncached(setup):
             err_console.print(
                 f"[yellow]note:[/] {escape(reason)}; the evaluation cache was not used for {escape(env)}",
@@ -350,12 +346,9 @@ def _execute(designers: str, options: RunOptions) -> None:
 
 
 def _uncached(setup: RunSetup) -> list[tuple[str, str]]:
-    if setup.execution.cache is None:
+    if setup.execution.cache is None or setup.plan is None:
         return []
-    from .running.plan import Plan
-
-    plan = Plan.resolve(setup.experiment, registry(), designers=False)
-    return sorted(plan.uncacheable.items())
+    return sorted(setup.plan.uncacheable.items())
 
 
 def _report_failures(run: RunDirectory) -> None:
@@ -380,9 +373,7 @@ def _print_table(title: str, headers: list[str], rows: list[list[str]]) -> None:
 
 
 def _print_summary(run: RunDirectory) -> None:
-    from .running.reevaluation import load
-
-    summary = summarize(run.load_evaluations(), thresholds(run.meta), reevaluations=load(run.path))
+    summary = summarize(run.load_evaluations(), thresholds(run.meta), reevaluations=load_reevaluations(run.path))
     _print_table(f"summary ({run.path})", *summary_cells(summary, compact=True))
 
 
@@ -443,11 +434,11 @@ def evaluate(
     with _Guard():
         from . import seeding
         from .body import Body
-        from .config import check_seed
         from .execution.evaluation import evaluate as evaluate_task
-        from .execution.tasks import EvalTask
-        from .running.plan import Plan
+        from .experiment.config import check_seed
+        from .experiment.plan import Plan
         from .statuses import OK
+        from .strategy import EvalTask
 
         parsed = Body.from_text(body)
         check_seed(seed)
@@ -500,7 +491,7 @@ def report(
 ) -> None:
     """Write plots, tables and a self-contained HTML report of a run directory (also mid-run)."""
     with _Guard():
-        from .config import Primary
+        from .experiment.config import Primary
 
         chosen = Primary.from_json(primary, "--primary") if primary is not None else None
         _write_report(
@@ -546,8 +537,8 @@ def reevaluate(
 ) -> None:
     """Train each trial's best bodies again under further seeds (for a run made without it); resumable."""
     with _Guard():
-        from .config import Reevaluation
         from .execution.options import Execution
+        from .experiment.config import Reevaluation
         from .running.reevaluation import reevaluate_directory
 
         setting = Reevaluation.parse(how, "--reevaluate") if how is not None else None

@@ -96,3 +96,10 @@ def info() -> dict[str, Any]:
 
 
 pin()
+
+
+def cpu_count() -> int:
+    """CPUs this process may use (its affinity mask where the platform has one)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1

@@ -14,10 +14,14 @@ from typing import Any, Callable, Mapping, Sequence, TypeVar, cast
 import numpy as np
 
 from .body import DEFAULT_SHAPE, Body
-from .config import DEFAULT_BUDGET, DEFAULT_POPULATION
 from .errors import ConfigError
 
 T = TypeVar("T")
+
+#: a generation's size and a trial's evaluation budget where neither the designer's caller nor the experiment
+#: says (the experiment's defaults too: :mod:`gdabench.experiment.config`)
+DEFAULT_POPULATION = 25
+DEFAULT_BUDGET = 1_000
 
 
 class Designer(abc.ABC):

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any, Callable, ClassVar, Mapping, Sequence, ca
 from .body import DEFAULT_SHAPE, Body
 
 if TYPE_CHECKING:
-    from .execution.strategy import EvaluationStrategy
+    from .strategy import EvaluationStrategy
 
 
 @dataclass(frozen=True)
@@ -34,7 +34,7 @@ class Bodies:
     #: per body, a factory of fresh Gymnasium environments of it
     make_envs: Sequence[Callable[[], Any]]
     #: ``make_batch(indices, n)``: ``n`` environments of each of those bodies as one
-    #: :class:`~gdabench.envs.batched.BodyBatch`, stepped in one call; None where the environment has no
+    #: :class:`~gdabench.batched.BodyBatch`, stepped in one call; None where the environment has no
     #: array simulator (a controller then batches ``make_envs``' environments itself)
     make_batch: Callable[[Sequence[int], int], Any] | None = None
     #: (observations, actions) that every batch of this environment is padded to, so that what a
@@ -72,7 +72,7 @@ class Controller(abc.ABC):
         ]
 
     def evaluation_strategy(self) -> EvaluationStrategy | None:
-        """How a whole generation is evaluated (see :mod:`gdabench.execution.strategy`); None:
+        """How a whole generation is evaluated (see :mod:`gdabench.strategy`); None:
         every body once, fully (the default)."""
         return None
 

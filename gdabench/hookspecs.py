@@ -21,24 +21,33 @@ of these hooks, or lacks the ``@gdabench.hookimpl`` marker, is refused with one 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
-import pluggy
-
-from .specs import ControllerSpec, DesignerSpec, EnvironmentSpec, SuiteSpec
+from .specs import PROJECT_NAME, ControllerSpec, DesignerSpec, EnvironmentSpec, SuiteSpec, hookimpl, hookspec
 
 if TYPE_CHECKING:  # the event hooks' argument types; importing them here would import pandas at start-up
     import pandas as pd
 
-    from .config import Experiment
-    from .running.trial import GenerationReport
-    from .running.trial_spec import TrialSpec
+    from .experiment.config import Experiment
+    from .experiment.trial_spec import TrialSpec
 
-PROJECT_NAME = "gdabench"
+__all__ = ["PROJECT_NAME", "GenerationReport", "hookimpl", "hookspec"]
 
-hookspec = pluggy.HookspecMarker(PROJECT_NAME)
-hookimpl = pluggy.HookimplMarker(PROJECT_NAME)
+
+@dataclass(frozen=True)
+class GenerationReport:
+    """Progress of one trial after one generation (what progress bars and hooks see)."""
+
+    designer: str
+    env: str
+    seed: int
+    generation: int
+    n_evals: int
+    budget: int
+    new_evals: int
+    best: float
 
 
 @hookspec

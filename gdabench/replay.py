@@ -15,12 +15,12 @@ from pathlib import Path
 import pandas as pd
 
 from .body import Body, as_body
-from .config import Experiment
 from .errors import ConfigError, RunDirectoryError
+from .experiment.config import Experiment
+from .experiment.plan import Plan
 from .plugins import registry
 from .report.animation import animate
 from .results import RunDirectory, atomic_write_bytes
-from .running.plan import Plan
 from .statuses import OK
 
 

@@ -40,12 +40,11 @@ from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
 import pandas as pd
-import pyarrow as pa
-import pyarrow.parquet as pq
 from filelock import FileLock, Timeout
 
+from . import faults
 from .errors import ConfigError, GdabenchError, RunDirectoryError, RunFailure, RunLockedError
-from .running import faults
+from .parquet import read_parquet
 from .statuses import STATUSES
 
 FORMAT = "gdabench-run/1"
@@ -54,6 +53,14 @@ EVALUATIONS = "evaluations.parquet"
 SUMMARY = "summary.csv"
 CHECKPOINTS = "checkpoints"
 PENDING = "pending"
+#: the re-evaluations of each trial's best bodies (written by :mod:`gdabench.running.reevaluation`)
+REEVALUATIONS = "reevaluations.parquet"
+REEVALUATION_COLUMNS = ["env", "designer", "seed", "run_id", "rank", "body", "body_hash", "first_reward", "replicate",
+           "eval_seed", "reward", "status", "message", "eval_seconds"]  # fmt: skip
+REEVALUATION_KEYS = ["env", "designer", "seed", "body_hash", "replicate"]
+REEVALUATION_TYPES = {"env": str, "designer": str, "seed": "int64", "run_id": str, "rank": "int64", "body": str,
+                      "body_hash": str, "first_reward": float, "replicate": "int64", "eval_seed": "int64",
+                      "reward": float, "status": str, "message": str, "eval_seconds": float}  # fmt: skip
 LOCK, WRITER = ".lock", ".writer.json"
 #: times a reader starts over when a run finishes a trial under it
 READ_ATTEMPTS = 20
@@ -127,20 +134,6 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
         Path(tmp).unlink(missing_ok=True)
         raise
     _fsync_dir(path.parent)
-
-
-def read_parquet(path: Path, columns: Sequence[str] | None = None) -> pd.DataFrame:
-    """A parquet file read with one open and one read, into Arrow's own memory.
-
-    One read of one file: pyarrow given a path may stat it and open it apart, and a writer's rename in
-    between hands it the new file's bytes with the old file's size.  Arrow's file and buffer rather than a
-    Python file object (or ``pandas.read_parquet``, which opens one): Arrow's threads then hold no Python
-    object, whose release in a finalising interpreter aborted about one process in 75 at exit ("terminate
-    called without an active exception"; ``benchmarks/exit_aborts.py``).
-    """
-    with pa.OSFile(str(path)) as file:
-        data = file.read_buffer()
-    return pq.read_table(data, columns=None if columns is None else list(columns)).to_pandas()
 
 
 def parquet_bytes(frame: pd.DataFrame) -> bytes:
@@ -552,3 +545,11 @@ def core_first(frame: pd.DataFrame) -> pd.DataFrame:
     table's columns do not depend on which trial finished first)."""
     core = [c for c in COLUMNS if c in frame.columns]
     return frame[core + sorted(c for c in frame.columns if c not in COLUMNS)]
+
+
+def load_reevaluations(run_path: str | Path) -> pd.DataFrame:
+    """The run's re-evaluations so far (an empty table with :data:`REEVALUATION_COLUMNS` where there are none)."""
+    path = Path(run_path) / REEVALUATIONS
+    if not path.exists():
+        return pd.DataFrame(columns=REEVALUATION_COLUMNS).astype(REEVALUATION_TYPES)
+    return read_parquet(path)

@@ -11,7 +11,16 @@ import importlib
 from dataclasses import dataclass, field
 from typing import Any, Callable, ClassVar, Mapping
 
+import pluggy
+
 from .errors import PluginError
+
+#: the plugin entry-point group and pluggy project; ``hookimpl`` marks a plugin's hook functions and ``hookspec``
+#: the contract's (:mod:`gdabench.hookspecs`); both live here, below the contract, so built-in plugins can mark
+#: their hooks without importing the registry's floor
+PROJECT_NAME = "gdabench"
+hookspec = pluggy.HookspecMarker(PROJECT_NAME)
+hookimpl = pluggy.HookimplMarker(PROJECT_NAME)
 
 
 def _load(factory: str | Callable[..., Any], kind: str, name: str) -> Callable[..., Any]:

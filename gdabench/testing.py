@@ -1,6 +1,9 @@
 """Conformance checks for plugin authors: does my designer, environment or controller obey the
 contracts the harness relies on?
 
+:func:`check_body_batch` checks the batch contract between controllers and environments: the
+:class:`~gdabench.sdk.BodyBatch` es an environment hands a controller that learns many bodies at once.
+
 Call them from your own tests::
 
     from gdabench.testing import check_designer
@@ -18,13 +21,14 @@ import contextlib
 import math
 import pickle
 from pathlib import Path
-from typing import Any, Callable, Iterator, Mapping
+from typing import Any, Callable, Iterator, Mapping, Sequence
 
 import numpy as np
 
+from .batched import BodyBatch, GymBodies, Transition
 from .body import Body, as_body, random_body
 from .designer import Designer
-from .environment import Controller, Environment, Evaluation
+from .environment import Bodies, Controller, Environment, Evaluation
 from .envs.simple import SumOfVoxels
 from .errors import one_line
 from .seeding import designer_seed
@@ -194,3 +198,76 @@ def check_controller(
         second = factory(**dict(params or {})).evaluate(make_env, seed=seed, workdir=workdir)
     _require(second.reward == first.reward, f"the same seed gave rewards {first.reward} and {second.reward}")
     return first
+
+
+def check_body_batch(bodies: Bodies, *, envs_per_body: int = 2, steps: int = 10, seed: int = 0) -> None:
+    """The batch contract, for every batch ``bodies`` (:meth:`ControlledEnvironment.bodies
+    <gdabench.envs.controlled.ControlledEnvironment.bodies>`) offers a controller: its array batch
+    (``make_batch``) where it has one, and its Gymnasium environments batched by
+    :class:`~gdabench.sdk.GymBodies`.  Rows are body-major (``envs_per_body`` per body), sizes are per body
+    and within the padding (``bodies.pad``, where given), padded columns are zero, every step is a
+    :class:`~gdabench.sdk.Transition` of finite values with boolean episode flags, actions outside the
+    action space are taken (clipped), and the same seeds give the same steps."""
+    n = len(bodies)
+    _require(n >= 1, "no bodies to batch")
+    makers: dict[str, Callable[[int], BodyBatch]] = {
+        "GymBodies over make_envs": lambda k: GymBodies(list(bodies.make_envs), k)
+    }
+    if bodies.make_batch is not None:
+        make_batch = bodies.make_batch
+        makers["make_batch"] = lambda k: make_batch(list(range(n)), k)
+    for name, make in makers.items():
+        pad = bodies.pad if name == "make_batch" else None
+        first = _roll(name, make, n, envs_per_body, steps, seed, pad)
+        again = _roll(name, make, n, envs_per_body, steps, seed, pad)
+        same = all(np.array_equal(a, b) for a, b in zip(first, again))
+        _require(same, f"{name}: the same seeds gave different steps")
+
+
+def _roll(name: str, make: Callable[[int], BodyBatch], n: int, per_body: int, steps: int, seed: int,
+          pad: tuple[int, int] | None) -> list[np.ndarray]:  # fmt: skip
+    """One batch's reset and ``steps`` steps of random (partly out-of-range) actions, checked; what it saw."""
+    with _plugin(f"{name}({per_body})"):
+        batch = make(per_body)
+    rows = n * per_body
+    try:
+        _require(batch.envs_per_body == per_body, f"{name}: envs_per_body {batch.envs_per_body}, not {per_body}")
+        _require(len(batch.obs_sizes) == n and len(batch.act_sizes) == n,
+                 f"{name}: obs_sizes/act_sizes need one entry per body ({n})")  # fmt: skip
+        with _plugin(f"{name}: seed() and reset()"):
+            batch.seed([seed + b for b in range(n)])
+            obs = np.asarray(batch.reset())
+        _require(obs.ndim == 2 and obs.shape[0] == rows, f"{name}: reset() gave shape {obs.shape}, not ({rows}, obs)")
+        _require(obs.shape[1] >= max(batch.obs_sizes), f"{name}: observations narrower than the widest body's")
+        if pad is not None:
+            _require(obs.shape[1] == pad[0], f"{name}: observations {obs.shape[1]} wide, not padded to {pad[0]}")
+            _require(max(batch.act_sizes) <= pad[1], f"{name}: an action size exceeds the padding {pad[1]}")
+        _check_rows(name, "reset()", obs, batch.obs_sizes, per_body)
+        width = pad[1] if pad is not None else max(batch.act_sizes)
+        rng = np.random.default_rng(seed)
+        seen = [obs]
+        for step in range(steps):
+            with _plugin(f"{name}: step() {step}"):
+                t = batch.step(2.0 * rng.standard_normal((rows, width)))  # about a third outside [-1, 1]
+            _require(isinstance(t, Transition), f"{name}: step() returned {type(t).__name__}, not a Transition")
+            for field in ("next_obs", "obs"):
+                value = np.asarray(getattr(t, field))
+                _require(value.shape == obs.shape, f"{name}: {field} has shape {value.shape}, not {obs.shape}")
+                _check_rows(name, f"step() {field}", value, batch.obs_sizes, per_body)
+            _require(np.shape(t.reward) == (rows,) and bool(np.isfinite(t.reward).all()),
+                     f"{name}: rewards must be {rows} finite numbers")  # fmt: skip
+            for flag in ("terminated", "truncated", "unstable"):
+                value = np.asarray(getattr(t, flag))
+                _require(value.shape == (rows,) and value.dtype == bool, f"{name}: {flag} must be {rows} booleans")
+            seen += [np.asarray(t.obs), np.asarray(t.reward), np.asarray(t.done)]
+        return seen
+    finally:
+        batch.close()
+
+
+def _check_rows(name: str, what: str, obs: np.ndarray, sizes: Sequence[int], per_body: int) -> None:
+    _require(bool(np.isfinite(obs).all()), f"{name}: {what} has non-finite observations")
+    for row in range(obs.shape[0]):
+        size = sizes[row // per_body]
+        _require(not obs[row, size:].any(), f"{name}: {what} row {row} is not zero beyond its body's {size} values")
+

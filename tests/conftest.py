@@ -14,7 +14,7 @@ import pytest
 from gdabench.plugins import Registry
 
 FIXTURE = Path(__file__).parent / "fixtures" / "faulty_plugin"
-#: tests measured to take longer than a few seconds (``python tests/slow_tests.py`` remakes the list from a
+#: tests measured to take longer than a few seconds (``python tests/support/slow_tests.py`` remakes the list from a
 #: run's ``--durations=0`` report); they are marked ``slow``, so ``-m "not slow"`` runs the fast part
 SLOW = Path(__file__).parent / "slow_tests.txt"
 
@@ -32,7 +32,18 @@ def faulty_site(tmp_path_factory) -> Path:
     src = tmp_path_factory.mktemp("src") / "faulty_plugin"
     shutil.copytree(FIXTURE, src)
     site = tmp_path_factory.mktemp("site")
-    cmd = [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation", "--target", str(site), str(src)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "pip",
+        "install",
+        "--quiet",
+        "--no-deps",
+        "--no-build-isolation",
+        "--target",
+        str(site),
+        str(src),
+    ]
     subprocess.run(cmd, check=True, capture_output=True)
     return site
 

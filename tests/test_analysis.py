@@ -17,7 +17,6 @@ from gdabench.errors import ConfigError
 from gdabench.report import aggregate as agg
 from gdabench.report.build import write_report
 from gdabench.report.pairwise import a12, holm, magnitude, pairwise
-from gdabench.report.power import critical_value, minimum_seeds, noether, power, seeds_needed
 from gdabench.report.runtimes import (
     default_targets,
     expected_runtime,
@@ -29,7 +28,9 @@ from gdabench.report.runtimes import (
     runtime_ecdf,
 )
 from gdabench.results import RunDirectory
-from stat_tables import small_run, table
+from gdabench.stats.power import critical_value, minimum_seeds, noether, power, seeds_needed
+
+from support.stat_tables import small_run, table
 
 
 # -- runtimes --------------------------------------------------------------------------------------
@@ -261,7 +262,8 @@ def _scores(names) -> pd.DataFrame:
     rows = []
     for name in names:
         matrix = np.array(RLIABLE["inputs"][name])
-        rows += [{"designer": name, "env": f"e{t}", "normalised": v} for t in range(matrix.shape[1]) for v in matrix[:, t]]
+        for t in range(matrix.shape[1]):
+            rows += [{"designer": name, "env": f"e{t}", "normalised": v} for v in matrix[:, t]]
     return pd.DataFrame(rows)
 
 
@@ -335,7 +337,9 @@ def test_normalised_scores_and_designers_missing_an_environment():
     assert with_optimum[with_optimum["env"] == "e2"]["normalised"].max() == pytest.approx(0.5)
     iqm, profiles, poi = agg.aggregate_scores(scores, resamples=200)
     assert list(iqm["designer"]) == ["a", "b"]  # c ran on e1 only
-    assert iqm.set_index("designer").loc["a", "iqm"] == pytest.approx(agg.iqm([np.array([0.5, 1.0]), np.array([0.0, 1.0])]))
+    assert iqm.set_index("designer").loc["a", "iqm"] == pytest.approx(
+        agg.iqm([np.array([0.5, 1.0]), np.array([0.0, 1.0])])
+    )
     assert set(zip(poi["designer_x"], poi["designer_y"])) == {("a", "b"), ("b", "a")}
     pab = poi.set_index(["designer_x", "designer_y"])["probability"]
     assert pab.loc[("a", "b")] + pab.loc[("b", "a")] == pytest.approx(1.0)
@@ -372,7 +376,9 @@ def test_report_pages_agree_with_the_functions(tmp_path):
     stored = pd.read_csv(report.out / "pairwise.csv")
     expected = pairwise(frame)
     np.testing.assert_allclose(stored["p_holm"], expected["p_holm"])
-    assert stored["test"].iloc[0] == "Wilcoxon signed-rank" and stored["same_start"].iloc[0] == "yes"  # ga and random share generation 0
+    assert (
+        stored["test"].iloc[0] == "Wilcoxon signed-rank" and stored["same_start"].iloc[0] == "yes"
+    )  # ga and random share generation 0
     ert = pd.read_csv(report.out / "fixed_target.csv")
     np.testing.assert_allclose(ert["ert"], fixed_target(frame, optima={"simple": 100.0})["ert"])
     assert (report.out / "ecdf_simple.png").is_file() and (report.out / "fixed_budget.csv").is_file()
@@ -389,7 +395,10 @@ def test_several_environments_get_the_aggregate_page(tmp_path):
     merged.to_parquet(both / "evaluations.parquet", index=False)
     report = write_report(both, animations=False)
     section = _section(report, "Aggregate over environments")
-    assert [t.title for t in section.tables] == ["Interquartile mean of normalised best rewards", "Probability of improvement"]
+    assert [t.title for t in section.tables] == [
+        "Interquartile mean of normalised best rewards",
+        "Probability of improvement",
+    ]
     iqm = pd.read_csv(report.out / "aggregate_iqm.csv")
     assert list(iqm["designer"]) == ["ga", "random"] and (iqm["envs"] == 2).all()
     assert set(pd.read_csv(report.out / "pairwise.csv")["env"]) == {"simple", "two-peaks"}

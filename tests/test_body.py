@@ -7,8 +7,7 @@ from collections import deque
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
+from hypothesis import given, settings, strategies as st
 from hypothesis.extra.numpy import arrays
 
 from gdabench.body import (
@@ -83,14 +82,18 @@ def test_malformed_text_is_one_readable_line(text, fragment):
     assert fragment in str(info.value) and "\n" not in str(info.value)
 
 
-@pytest.mark.parametrize("value", [np.zeros((2, 2, 2)), [[0, 1], [2]], [[5, 0]], [[-1, 0]], [[0.5, 1.0]], np.zeros((0, 3))])
+@pytest.mark.parametrize(
+    "value", [np.zeros((2, 2, 2)), [[0, 1], [2]], [[5, 0]], [[-1, 0]], [[0.5, 1.0]], np.zeros((0, 3))]
+)
 def test_malformed_arrays_rejected(value):
     with pytest.raises(MalformedBodyError):
         Body(value)
 
 
 def test_hash_is_stable_and_shape_aware():
-    assert Body.from_text("44444/44444/44444/44444/44444").hash == "efed6bd4377f7449"  # blake2b-64 of b"5x5:" + codes; fixed forever
+    assert (
+        Body.from_text("44444/44444/44444/44444/44444").hash == "efed6bd4377f7449"
+    )  # blake2b-64 of b"5x5:" + codes; fixed forever
     flat = Body.from_text("3333")
     assert flat.hash != Body.from_text("33/33").hash  # same bytes, different shape
     assert len({Body.from_text(t).hash for t in ("3", "4", "34", "43")}) == 4

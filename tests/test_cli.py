@@ -9,8 +9,8 @@ import pytest
 from typer.testing import CliRunner
 
 from gdabench.cli import app
-from gdabench.config import parse_seeds
 from gdabench.errors import ConfigError
+from gdabench.experiment.config import parse_seeds
 
 runner = CliRunner()
 
@@ -57,7 +57,20 @@ def test_every_builtin_parameter_has_a_description():
 
 def test_compare_writes_run_and_prints_summary(tmp_path):
     out = tmp_path / "run"
-    result = invoke("compare", "--designers", "ga,random", "--env", "simple", "--seeds", "0,1", "--budget", "100", "--out", str(out), "-q")
+    result = invoke(
+        "compare",
+        "--designers",
+        "ga,random",
+        "--env",
+        "simple",
+        "--seeds",
+        "0,1",
+        "--budget",
+        "100",
+        "--out",
+        str(out),
+        "-q",
+    )
     assert result.exit_code == 0, result.stderr
     assert "summary" in result.stdout and "ga" in result.stdout and "hit 100" in result.stdout
     df = pd.read_parquet(out / "evaluations.parquet")
@@ -70,8 +83,21 @@ def test_compare_writes_run_and_prints_summary(tmp_path):
 
 
 def test_the_summary_fits_an_80_column_terminal(tmp_path):
-    result = runner.invoke(app, ["compare", "-d", "ga[survivors=5],cppn,random", "--budget", "50", "--out", str(tmp_path / "r"), "-q", "--no-report"],
-                           env={"COLUMNS": "80"})
+    result = runner.invoke(
+        app,
+        [
+            "compare",
+            "-d",
+            "ga[survivors=5],cppn,random",
+            "--budget",
+            "50",
+            "--out",
+            str(tmp_path / "r"),
+            "-q",
+            "--no-report",
+        ],
+        env={"COLUMNS": "80"},
+    )
     assert result.exit_code == 0, result.stderr
     table = [line for line in result.stdout.splitlines() if "│" in line or "┃" in line]
     assert len(table) == 4 and all(len(line) <= 80 for line in table)
@@ -99,15 +125,31 @@ def test_evaluate_scores_one_body():
 
 def test_evaluate_scores_a_physics_body_with_the_controller_as_a_run_does(tmp_path):
     controller = ("--controller", "open-loop", "-C", "trials=1", "-C", "period=40")
-    run = invoke("compare", "-d", "random", "--env", "walker", *controller, "--population", "2", "--budget", "2",
-                 "--out", str(tmp_path / "run"), "-q", "--no-report")
+    run = invoke(
+        "compare",
+        "-d",
+        "random",
+        "--env",
+        "walker",
+        *controller,
+        "--population",
+        "2",
+        "--budget",
+        "2",
+        "--out",
+        str(tmp_path / "run"),
+        "-q",
+        "--no-report",
+    )
     assert run.exit_code == 0, run.stderr
     rows = pd.read_parquet(tmp_path / "run" / "evaluations.parquet")
     for body, reward in zip(rows["body"], rows["reward"]):
         result = invoke("evaluate", body, "--env", "walker", *controller)
         assert result.exit_code == 0, result.stderr
         assert float(result.stdout) == pytest.approx(reward, rel=1e-5)
-    other = invoke("evaluate", rows["body"][0], "--env", "walker", "--controller", "open-loop", "-C", "trials=1", "-C", "period=10")
+    other = invoke(
+        "evaluate", rows["body"][0], "--env", "walker", "--controller", "open-loop", "-C", "trials=1", "-C", "period=10"
+    )
     assert float(other.stdout) != pytest.approx(rows["reward"][0], rel=1e-5)  # -C reaches the controller
 
 
@@ -116,7 +158,10 @@ def test_evaluate_scores_a_physics_body_with_the_controller_as_a_run_does(tmp_pa
     [
         (["compare", "--designers", "ga,nope"], "unknown designer 'nope'; known designers:"),
         (["compare", "--designers", "ga", "--env", "nope"], "unknown environment 'nope'"),
-        (["compare", "--designers", "ga", "--population", "0"], "population must be an integer from 1 to 10,000, got 0"),
+        (
+            ["compare", "--designers", "ga", "--population", "0"],
+            "population must be an integer from 1 to 10,000, got 0",
+        ),
         (["compare", "--designers", "ga", "--budget", "10"], "budget (10) must be at least the population (25)"),
         (["compare", "--designers", "ga", "-D", "survivors=40"], "survivors must be between 1 and population - 1"),
         (["compare", "--designers", "ga", "--seeds", "a,b"], "malformed seeds"),
@@ -124,9 +169,15 @@ def test_evaluate_scores_a_physics_body_with_the_controller_as_a_run_does(tmp_pa
         (["compare", "--designers", "ga", "--controller", "ppo"], "takes no controller"),
         (["evaluate", "44444/4444x"], "malformed body text"),
         (["evaluate", "11111/11111"], "is invalid for 'simple': no actuator"),
-        (["evaluate", "44444/44444", "--controller", "open-loop"], "'simple' scores bodies directly and takes no controller"),
+        (
+            ["evaluate", "44444/44444", "--controller", "open-loop"],
+            "'simple' scores bodies directly and takes no controller",
+        ),
         (["evaluate", "44444/44444", "--env", "walker"], "'walker' needs a controller"),
-        (["evaluate", "44444/44444", "--env", "walker", "-C", "period=30"], "--controller-param given without --controller"),
+        (
+            ["evaluate", "44444/44444", "--env", "walker", "-C", "period=30"],
+            "--controller-param given without --controller",
+        ),
         (["compare"], "give --designers"),
     ],
 )
@@ -134,7 +185,7 @@ def test_bad_input_is_one_line_and_nonzero(tmp_path, args, fragment):
     out = tmp_path / "run"
     result = invoke(*args, "--out", str(out)) if args[0] == "compare" else invoke(*args)
     assert result.exit_code == 2
-    lines = [l for l in result.stderr.splitlines() if l.strip()]
+    lines = [ln for ln in result.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], result.stderr
     assert "Traceback" not in result.stdout + result.stderr
     assert not out.exists()
@@ -148,7 +199,8 @@ def test_report_on_non_run_directory(tmp_path):
 def test_resume_continues_a_killed_run(tmp_path):
     from gdabench import Experiment, PluginChoice
     from gdabench.running.runner import compare
-    from listeners import KillAt, Killed
+
+    from support.listeners import KillAt, Killed
 
     exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), envs=PluginChoice("simple"), budget=100)
     with pytest.raises(Killed):
@@ -180,18 +232,39 @@ def test_resume_adds_seeds_to_a_complete_run_as_if_they_had_been_there(tmp_path)
     pd.testing.assert_frame_equal(*summaries)
 
 
-@pytest.mark.parametrize(("extra", "fragment"), [
-    (("--budget", "80"), "--budget cannot change it"),
-    (("--designers", "ga"), "--designers cannot change it"),
-    (("--seeds", "1..3"), "resuming can add seeds but not drop 0"),
-])
+@pytest.mark.parametrize(
+    ("extra", "fragment"),
+    [
+        (("--budget", "80"), "--budget cannot change it"),
+        (("--designers", "ga"), "--designers cannot change it"),
+        (("--seeds", "1..3"), "resuming can add seeds but not drop 0"),
+    ],
+)
 def test_resume_refuses_to_change_the_experiment_and_touches_nothing(tmp_path, extra, fragment):
-    assert invoke("compare", "--designers", "ga,random", "--budget", "60", "--population", "10", "--seeds", "0,1",
-                  "--out", str(tmp_path / "run"), "-q", "--no-report").exit_code == 0
+    assert (
+        invoke(
+            "compare",
+            "--designers",
+            "ga,random",
+            "--budget",
+            "60",
+            "--population",
+            "10",
+            "--seeds",
+            "0,1",
+            "--out",
+            str(tmp_path / "run"),
+            "-q",
+            "--no-report",
+        ).exit_code
+        == 0
+    )
     files = {p: p.read_bytes() for p in (tmp_path / "run").rglob("*") if p.is_file()}
     result = invoke("compare", "--resume", str(tmp_path / "run"), *extra, "-q")
     lines = result.stderr.strip().splitlines()
-    assert result.exit_code == 2 and len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], result.stderr
+    assert result.exit_code == 2 and len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], (
+        result.stderr
+    )
     assert {p: p.read_bytes() for p in (tmp_path / "run").rglob("*") if p.is_file()} == files
 
 
@@ -230,7 +303,11 @@ def test_the_console_script_exits_with_its_code_past_native_teardown(tmp_path, a
     done = subprocess.run([sys.executable, str(script), *args], capture_output=True, text=True, timeout=120)
     assert done.returncode == code, done.stderr
     assert done.stdout.rstrip().endswith("atexit ran")
-    assert ("random" in done.stdout) if code == 0 else done.stderr.startswith("error: no designer, environment or controller")
+    assert (
+        ("random" in done.stdout)
+        if code == 0
+        else done.stderr.startswith("error: no designer, environment or controller")
+    )
 
 
 # -- what a newcomer's typos met (issue 57) ---------------------------------------------------------
@@ -261,9 +338,11 @@ def test_paths_too_long_for_the_filesystem_are_one_line(tmp_path):
 
 
 def test_ppo_counts_have_an_upper_bound_and_stay_integers(tmp_path):
-    line = one_error_line(invoke("compare", "-d", "ga", "--env", "walker", "-c", "ppo[timesteps=1e99]", "--out", str(tmp_path / "a")))
+    line = one_error_line(
+        invoke("compare", "-d", "ga", "--env", "walker", "-c", "ppo[timesteps=1e99]", "--out", str(tmp_path / "a"))
+    )
     assert "ppo: timesteps must be an integer from 1 to 1,000,000,000, got 1e+99" in line
-    from gdabench.config import parse_value
+    from gdabench.experiment.config import parse_value
 
     assert parse_value("1e5") == 100000 and isinstance(parse_value("1e5"), int)  # stored as 100000, not 100000.0
     assert isinstance(parse_value("1.0"), float) and isinstance(parse_value("2.5e-4"), float)
@@ -277,7 +356,9 @@ def test_a_bad_ppo_parameter_is_refused_before_torch_is_imported():
     script = ("import sys\nfrom typer.testing import CliRunner\nfrom gdabench.cli import app\n"
               "r = CliRunner().invoke(app, ['compare', '-d', 'ga', '--env', 'walker', '-c', 'ppo[n_epochs=0]', '-q'])\n"
               "print(r.exit_code, 'torch' in sys.modules, r.stderr.strip())\n")  # fmt: skip
-    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120).stdout.split(" ", 2)
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120).stdout.split(
+        " ", 2
+    )
     assert out[:2] == ["2", "False"] and "ppo: n_epochs must be a positive integer" in out[2], out
 
 

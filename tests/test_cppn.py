@@ -16,15 +16,15 @@ from typer.testing import CliRunner
 from gdabench import hookimpl
 from gdabench.body import Body, random_body
 from gdabench.cli import app
-from gdabench.config import Experiment, PluginChoice
 from gdabench.designer import Designer
 from gdabench.designers.cppn import CppnNeat
-from gdabench.designers.cppn.painting import cppn_voxels
 from gdabench.designers.cppn.config import load_config, shipped_config_text
+from gdabench.designers.cppn.painting import cppn_voxels
 from gdabench.envs.simple import SumOfVoxels
 from gdabench.errors import ConfigError
-from gdabench.plugins import Registry
 from gdabench.execution import Execution
+from gdabench.experiment.config import Experiment, PluginChoice
+from gdabench.plugins import Registry
 from gdabench.running.runner import compare
 from gdabench.specs import DesignerSpec
 from gdabench.testing import check_designer
@@ -63,7 +63,12 @@ def test_shipped_config_has_evolution_gym_values():
         assert (getattr(g, f"{attr}_mutate_power"), getattr(g, f"{attr}_replace_rate")) == (0.5, 0.1)
         assert (getattr(g, f"{attr}_min_value"), getattr(g, f"{attr}_max_value")) == (-30.0, 30.0)
     assert (g.bias_mutate_rate, g.weight_mutate_rate) == (0.7, 0.8)
-    assert (g.response_init_mean, g.response_init_stdev, g.response_mutate_rate, g.response_replace_rate) == (1.0, 0.0, 0.0, 0.0)
+    assert (g.response_init_mean, g.response_init_stdev, g.response_mutate_rate, g.response_replace_rate) == (
+        1.0,
+        0.0,
+        0.0,
+        0.0,
+    )
     assert g.enabled_mutate_rate == 0.01
     assert (g.compatibility_disjoint_coefficient, g.compatibility_weight_coefficient) == (1.0, 0.6)
     assert config.species_set_config.compatibility_threshold == 3.0
@@ -78,8 +83,8 @@ def test_population_comes_from_the_harness_and_user_config_is_used(tmp_path):
     path = tmp_path / "mine.cfg"
     path.write_text(shipped_config_text().replace("conn_add_prob    = 0.2", "conn_add_prob    = 0.5"))
     designer = CppnNeat(config=str(path), population=10, seed=np.random.SeedSequence(0))
-    assert designer._config.genome_config.conn_add_prob == 0.5
-    assert designer._config.pop_size == 10
+    assert designer.neat_config.genome_config.conn_add_prob == 0.5
+    assert designer.neat_config.pop_size == 10
     assert len(designer.ask()) == 10
 
 
@@ -137,7 +142,19 @@ def test_cli_reports_a_bad_config_in_one_line(tmp_path):
     path = tmp_path / "bad.cfg"
     path.write_text(_edit("DefaultGenome", "node_add_prob", "often"))
     result = CliRunner().invoke(
-        app, ["compare", "--designers", f"cppn[config={path}]", "--env", "simple", "--budget", "50", "--out", str(tmp_path / "run"), "-q"]
+        app,
+        [
+            "compare",
+            "--designers",
+            f"cppn[config={path}]",
+            "--env",
+            "simple",
+            "--budget",
+            "50",
+            "--out",
+            str(tmp_path / "run"),
+            "-q",
+        ],
     )
     assert result.exit_code == 2
     lines = [line for line in result.output.splitlines() if line.strip()]
@@ -146,11 +163,19 @@ def test_cli_reports_a_bad_config_in_one_line(tmp_path):
 
 
 # -- painting bodies ------------------------------------------------------------------------------
-def _genome(config: neat.Config, biases: list[float], connections: list[tuple[int, int, float, bool]]) -> neat.DefaultGenome:
+def _genome(
+    config: neat.Config, biases: list[float], connections: list[tuple[int, int, float, bool]]
+) -> neat.DefaultGenome:
     genome = neat.DefaultGenome(1)
     for key, bias in enumerate(biases):
         node = neat.DefaultNodeGene(key)
-        node.bias, node.response, node.activation, node.aggregation, node.time_constant = bias, 1.0, "sigmoid", "sum", 1.0
+        node.bias, node.response, node.activation, node.aggregation, node.time_constant = (
+            bias,
+            1.0,
+            "sigmoid",
+            "sum",
+            1.0,
+        )
         genome.nodes[key] = node
     for n, (src, dst, weight, enabled) in enumerate(connections, start=1):
         gene = neat.DefaultConnectionGene((src, dst), innovation=n)
@@ -185,7 +210,15 @@ def test_run_bodies_are_valid_unique_and_carry_extras(tmp_path):
     assert (frame["status"] == "ok").all()
     assert frame["body_hash"].is_unique
     assert all(Body.from_text(t).is_valid() for t in frame["body"])
-    for column in ("cppn_genome", "cppn_species", "cppn_species_count", "cppn_nodes", "cppn_connections", "cppn_fresh", "cppn_replaced"):
+    for column in (
+        "cppn_genome",
+        "cppn_species",
+        "cppn_species_count",
+        "cppn_nodes",
+        "cppn_connections",
+        "cppn_fresh",
+        "cppn_replaced",
+    ):
         assert column in frame.columns
     assert (frame["cppn_nodes"] >= 5).all()  # five outputs, at least
     per_gen = frame.groupby("generation").agg(fresh=("cppn_fresh", "sum"), replaced=("cppn_replaced", "first"))
@@ -261,7 +294,9 @@ def test_a_cppn_run_in_between_changes_no_other_designer(tmp_path):
     def rows(names: list[str], out: Path):
         experiment = Experiment(tuple(PluginChoice(n) for n in names), PluginChoice("simple"), budget=75, seeds=(0, 1))
         random.seed(11)
-        frame = compare(experiment, out, command=["test"], reg=reg, execution=Execution(jobs=1)).load_evaluations()  # one process
+        frame = compare(
+            experiment, out, command=["test"], reg=reg, execution=Execution(jobs=1)
+        ).load_evaluations()  # one process
         frame = frame[frame["designer"] != "cppn"]
         return frame[["designer", "seed", "generation", "index", "body", "reward"]].reset_index(drop=True)
 

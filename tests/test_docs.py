@@ -16,7 +16,6 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from test_plugins import gdabench_cli, pip_install
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -31,7 +30,8 @@ def bash_blocks(text: str) -> list[str]:
 
 def test_quick_start_is_the_main_job_and_cis_test_command():
     main_job, tests = bash_blocks(README.split("## Quick start", 1)[1])[:2]
-    assert main_job == f"python3 -m venv .venv && . .venv/bin/activate && pip install torch==2.13.0 && pip install -e . && {MAIN_JOB}"
+    setup = "python3 -m venv .venv && . .venv/bin/activate && pip install torch==2.13.0 && pip install -e ."
+    assert main_job == f"{setup} && {MAIN_JOB}"
     ci_lines = (ROOT / ".ci" / "run").read_text().splitlines()
     assert tests in ci_lines, "README's test command and .ci/run's must be identical"
 
@@ -60,9 +60,9 @@ def test_the_walker_reference_page_shows_the_committed_runs_own_figures():
     (a part of the run committed without its report made again fails here), and the run walker.toml's."""
     import pandas as pd
 
-    from gdabench.experiment_build import build_run
-    from gdabench.report.stats import generation_rewards
+    from gdabench.experiment.build import build_run
     from gdabench.results import RunDirectory
+    from gdabench.stats.core import generation_rewards
 
     page = (ROOT / "docs" / "benchmarks" / "reference-walker.md").read_text()
     assert "<!-- gdabench:thesis-walker -->" in page and "<!-- gdabench:reference-summary walker -->" in page
@@ -72,7 +72,10 @@ def test_the_walker_reference_page_shows_the_committed_runs_own_figures():
     assert [d["name"] for d in config["designers"]] == [d.name for d in experiment.designers]
     assert config["controller"]["label"] == experiment.controller.label
     assert (config["population"], config["budget"], config["seeds"]) == (
-        experiment.population, experiment.budget, list(experiment.seeds))
+        experiment.population,
+        experiment.budget,
+        list(experiment.seeds),
+    )
 
     rows = generation_rewards(run.load_evaluations())
     committed = pd.read_csv(WALKER_RUN / "report" / "generations.csv")
@@ -113,9 +116,8 @@ def test_the_thesis_budget_table_is_the_committed_rows_against_the_authors():
 
 def test_the_walker_pages_reevaluation_is_the_runs():
     """Raw against re-evaluated best on the walker page, from the committed re-evaluations (once committed)."""
-    from gdabench.report.reevaluated import trial_scores
-    from gdabench.results import read_parquet
-    from gdabench.running.reevaluation import load
+    from gdabench.results import load_reevaluations as load, read_parquet
+    from gdabench.stats.reevaluated import trial_scores
 
     hooks = docs_hooks()
     again = load(WALKER_RUN)
@@ -132,8 +134,8 @@ def test_the_walker_pages_reevaluation_is_the_runs():
 def test_the_walker_pages_measures_are_the_runs():
     """Evaluations to a reward and mean best-so-far on the walker page, from the committed rows."""
     hooks = docs_hooks()
-    from gdabench.report.summary import per_run
     from gdabench.results import read_parquet
+    from gdabench.stats.summary import per_run
 
     rows = read_parquet(WALKER_RUN / "evaluations.parquet")
     table = hooks.walker_measures(ROOT).splitlines()
@@ -159,16 +161,25 @@ def test_the_walker_page_describes_each_designers_best_bodies_by_their_materials
 
     rows = read_parquet(WALKER_RUN / "evaluations.parquet", columns=["designer", "seed", "body", "reward"])
     table = hooks.walker_bodies(ROOT).splitlines()
-    assert table[0] == ("| designer | seeds | voxels | rigid | soft | horizontal actuator | vertical actuator "
-                        "| same-material neighbours |")
+    assert table[0] == (
+        "| designer | seeds | voxels | rigid | soft | horizontal actuator | vertical actuator "
+        "| same-material neighbours |"
+    )
     for designer, trials in rows.groupby("designer"):
-        bests = [np.array([list(map(int, line)) for line in trial.sort_values("reward").body.iloc[-1].split("/")])
-                 for _, trial in trials.groupby("seed")]
+        bests = [
+            np.array([list(map(int, line)) for line in trial.sort_values("reward").body.iloc[-1].split("/")])
+            for _, trial in trials.groupby("seed")
+        ]
         horizontal = np.mean([(v == 3).sum() / (v > 0).sum() for v in bests])
         same = []
         for v in bests:
-            pairs = [(v[i, j], v[i + di, j + dj]) for i in range(v.shape[0]) for j in range(v.shape[1])
-                     for di, dj in ((0, 1), (1, 0)) if i + di < v.shape[0] and j + dj < v.shape[1]]
+            pairs = [
+                (v[i, j], v[i + di, j + dj])
+                for i in range(v.shape[0])
+                for j in range(v.shape[1])
+                for di, dj in ((0, 1), (1, 0))
+                if i + di < v.shape[0] and j + dj < v.shape[1]
+            ]
             filled = [(a, b) for a, b in pairs if a and b]
             same.append(sum(a == b for a, b in filled) / len(filled))
         line = next(r for r in table if r.startswith(f"| {designer} | {len(bests)} | "))
@@ -183,15 +194,28 @@ def test_the_thesis_statements_are_checked_seed_by_seed():
 
     hooks = docs_hooks()
     runs = {  # (designer, seed): per generation, the two bodies' rewards (worst, best)
-        ("gda", 0): ([0, 1, 2, 3, 4], [5, 6, 7, 6.5, 6]), ("gda", 1): ([4, 3, 2, 1, 0], [7, 6, 5, 6, 7]),
-        ("ga", 0): ([0, 1, 2, 3, 4], [1, 2, 3, 4, 5]), ("ga", 1): ([4, 3, 2, 1, 0], [5, 6, 7, 8, 9]),
-        ("cppn", 0): ([0, 0, 0, 0, 0], [9, 8, 7, 6, 5]), ("cppn", 1): ([0, 1, 2, 3, 4], [1, 2, 3, 4, 10]),
+        ("gda", 0): ([0, 1, 2, 3, 4], [5, 6, 7, 6.5, 6]),
+        ("gda", 1): ([4, 3, 2, 1, 0], [7, 6, 5, 6, 7]),
+        ("ga", 0): ([0, 1, 2, 3, 4], [1, 2, 3, 4, 5]),
+        ("ga", 1): ([4, 3, 2, 1, 0], [5, 6, 7, 8, 9]),
+        ("cppn", 0): ([0, 0, 0, 0, 0], [9, 8, 7, 6, 5]),
+        ("cppn", 1): ([0, 1, 2, 3, 4], [1, 2, 3, 4, 10]),
     }
     rows = []
     for (designer, seed), (worst, best) in runs.items():
         rewards = [r for pair in zip(worst, best) for r in pair]
-        rows += [{"env": "walker", "designer": designer, "seed": seed, "generation": i // 2, "status": "ok",
-                  "reward": float(r), "n_evals": i + 1} for i, r in enumerate(rewards)]
+        rows += [
+            {
+                "env": "walker",
+                "designer": designer,
+                "seed": seed,
+                "generation": i // 2,
+                "status": "ok",
+                "reward": float(r),
+                "n_evals": i + 1,
+            }
+            for i, r in enumerate(rewards)
+        ]
     claims = hooks.thesis_claims(pd.DataFrame(rows))
     assert [c["holds"] for c in claims] == [[0], [0], [0], [0], [], [0], [0], []]
     assert all(c["seeds"] == 2 for c in claims)
@@ -210,17 +234,39 @@ def test_the_thesis_variants_are_set_beside_their_designers_seed_by_seed():
     hooks = docs_hooks()
 
     def trial(label: str, seed: int, rewards: list[float], budget: int = 3) -> list[dict]:
-        return [{"designer": label, "designer_name": label.split("[")[0], "seed": seed, "generation": i,
-                 "status": "ok", "reward": r, "n_evals": i + 1, "budget": budget} for i, r in enumerate(rewards)]
+        return [
+            {
+                "designer": label,
+                "designer_name": label.split("[")[0],
+                "seed": seed,
+                "generation": i,
+                "status": "ok",
+                "reward": r,
+                "n_evals": i + 1,
+                "budget": budget,
+            }
+            for i, r in enumerate(rewards)
+        ]
 
-    main = pd.DataFrame(trial("ga", 0, [1, 2, 3]) + trial("ga", 1, [1, 1, 5]) + trial("gda", 0, [2, 2, 2])
-                        + trial("gda", 1, [4, 4, 4]) + trial("cppn", 0, [9, 9, 9]))
-    variants = pd.DataFrame(trial("ga[survivors=5]", 0, [3, 4, 6]) + trial("ga[survivors=5]", 1, [0, 7, 1])
-                            + trial("gda[published_reencoding=true]", 0, [1, 8, 1])
-                            + trial("gda[published_reencoding=true]", 1, [9, 9]))  # seed 1 still running
+    main = pd.DataFrame(
+        trial("ga", 0, [1, 2, 3])
+        + trial("ga", 1, [1, 1, 5])
+        + trial("gda", 0, [2, 2, 2])
+        + trial("gda", 1, [4, 4, 4])
+        + trial("cppn", 0, [9, 9, 9])
+    )
+    variants = pd.DataFrame(
+        trial("ga[survivors=5]", 0, [3, 4, 6])
+        + trial("ga[survivors=5]", 1, [0, 7, 1])
+        + trial("gda[published_reencoding=true]", 0, [1, 8, 1])
+        + trial("gda[published_reencoding=true]", 1, [9, 9])
+    )  # seed 1 still running
     done = hooks.finished(variants)
     assert sorted(set(zip(done["designer"], done["seed"]))) == [
-        ("ga[survivors=5]", 0), ("ga[survivors=5]", 1), ("gda[published_reencoding=true]", 0)]
+        ("ga[survivors=5]", 0),
+        ("ga[survivors=5]", 1),
+        ("gda[published_reencoding=true]", 0),
+    ]
 
     mixed = hooks.with_variants(main, done)
     assert sorted(set(mixed["designer"])) == ["cppn", "ga", "gda"]
@@ -229,14 +275,17 @@ def test_the_thesis_variants_are_set_beside_their_designers_seed_by_seed():
 
     table = hooks.variants_table(main, done).splitlines()
     assert table[0] == "| seed | ga | ga[survivors=5] | gda | gda[published_reencoding=true] |"
-    assert table[2:] == ["| 0 | 3.00 | 6.00 | 2.00 | 8.00 |", "| 1 | 5.00 | 7.00 | 4.00 |  |",
-                         "| median | 4.00 | 6.50 | 2.00 | 8.00 |"]
+    assert table[2:] == [
+        "| 0 | 3.00 | 6.00 | 2.00 | 8.00 |",
+        "| 1 | 5.00 | 7.00 | 4.00 |  |",
+        "| median | 4.00 | 6.50 | 2.00 | 8.00 |",
+    ]
 
 
 def test_the_committed_run_of_the_thesis_variants_is_walker_thesis_toml_beside_the_walker_run():
     """The run of the thesis's variants is experiments/walker-thesis.toml's, at the walker run's controller,
     population and budget, and the page shows the best reward of each of its finished trials."""
-    from gdabench.experiment_build import build_run
+    from gdabench.experiment.build import build_run
     from gdabench.results import RunDirectory
 
     hooks = docs_hooks()
@@ -249,7 +298,8 @@ def test_the_committed_run_of_the_thesis_variants_is_walker_thesis_toml_beside_t
     assert [d["label"] for d in config["designers"]] == [d.label for d in experiment.designers]
     assert config["seeds"] == list(experiment.seeds)
     assert [config[k] for k in ("controller", "population", "budget")] == [
-        walker[k] for k in ("controller", "population", "budget")]
+        walker[k] for k in ("controller", "population", "budget")
+    ]
 
     finished = hooks.finished(run.load_evaluations())
     assert len(finished), "no finished trial committed"
@@ -286,8 +336,13 @@ def test_the_walker_pages_transfer_check_is_of_the_committed_runs_best_bodies():
 
 
 #: how the README and the tutorial name each column of the table a run prints in the terminal
-TERMINAL_COLUMNS = {"designer": "one row per designer", "best": "best reward", "hit": "optimum",
-                    "evals to": "after how many evaluations", "seconds": "wall time"}
+TERMINAL_COLUMNS = {
+    "designer": "one row per designer",
+    "best": "best reward",
+    "hit": "optimum",
+    "evals to": "after how many evaluations",
+    "seconds": "wall time",
+}
 
 
 def test_readme_and_tutorial_describe_the_terminal_summary_as_printed(tmp_path):
@@ -296,7 +351,9 @@ def test_readme_and_tutorial_describe_the_terminal_summary_as_printed(tmp_path):
 
     from gdabench.cli import app
 
-    result = CliRunner().invoke(app, ["compare", "-d", "ga,random", "--budget", "25", "--out", str(tmp_path / "run"), "-q", "--no-report"])
+    result = CliRunner().invoke(
+        app, ["compare", "-d", "ga,random", "--budget", "25", "--out", str(tmp_path / "run"), "-q", "--no-report"]
+    )
     assert result.exit_code == 0, result.output
     header = next(line for line in result.output.splitlines() if "┃" in line)
     printed = [cell.strip() for cell in header.split("┃")]
@@ -305,7 +362,10 @@ def test_readme_and_tutorial_describe_the_terminal_summary_as_printed(tmp_path):
     for page in (README, (ROOT / "docs" / "tutorial.md").read_text()):
         text = " ".join(page.split())
         said = re.search(r"prints a summary table, (one row per designer.*?)the report adds the mean best-so-far", text)
-        assert said, "a page no longer says what the terminal's summary table holds, and that the report adds the mean best-so-far"
+        assert said, (
+            "a page no longer says what the terminal's summary table holds, and that the report adds the "
+            "mean best-so-far"
+        )
         assert all(phrase in said.group(1) for phrase in TERMINAL_COLUMNS.values()), said.group(1)
         assert "best-so-far" not in said.group(1), said.group(1)
 
@@ -342,13 +402,17 @@ def test_plugin_guide_example_runs_in_compare(example_site, tmp_path):
     )  # fmt: skip
     assert run.returncode == 0, run.stderr
     assert json.loads((out / "run.json").read_text())["versions"]["plugins"]["gdabench-checkerboard"] == "0.1.0"
-    bad = gdabench_cli("run", "hill-climber[rate=2]", "--env", "checkerboard", "--out", str(tmp_path / "bad"), path=example_site)
+    bad = gdabench_cli(
+        "run", "hill-climber[rate=2]", "--env", "checkerboard", "--out", str(tmp_path / "bad"), path=example_site
+    )
     assert bad.returncode == 2 and "hill-climber: rate must be in (0, 1]" in bad.stderr
 
 
 def test_readme_python_example_runs_as_a_script_anywhere_and_prints_what_it_shows(tmp_path):
     """It once read a run by a path relative to the repository (a traceback elsewhere) and printed nothing."""
-    code = re.search(r"```python\n(import gdabench\n\nrun = gdabench\.compare.*?)```\n\n```text\n(.*?)```", README, re.S)
+    code = re.search(
+        r"```python\n(import gdabench\n\nrun = gdabench\.compare.*?)```\n\n```text\n(.*?)```", README, re.S
+    )
     assert code, "the README's Python example (and the output it shows) is gone"
     (tmp_path / "example.py").write_text(code.group(1))
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))

@@ -58,7 +58,10 @@ def test_same_seed_same_bodies_other_seed_other_bodies(name, params, module):
     assert runs[0] != runs[2]
 
 
-@pytest.mark.parametrize("name, module", [("nevergrad", "nevergrad"), ("bo", "botorch"), ("ribs-map-elites", "ribs"), ("ribs-cma-me", "ribs")])
+@pytest.mark.parametrize(
+    "name, module",
+    [("nevergrad", "nevergrad"), ("bo", "botorch"), ("ribs-map-elites", "ribs"), ("ribs-cma-me", "ribs")],
+)
 def test_missing_extra_names_the_pip_install(name, module, monkeypatch):
     monkeypatch.setitem(sys.modules, module, None)  # makes `import module` fail as if it were not installed
     with pytest.raises(ConfigError, match=rf"pip install 'gdabench\[{EXTRA[name]}\]'"):
@@ -67,14 +70,21 @@ def test_missing_extra_names_the_pip_install(name, module, monkeypatch):
 
 def test_nevergrad_unknown_optimizer_names_the_choices():
     pytest.importorskip("nevergrad")
-    with pytest.raises(ConfigError, match="unknown optimizer 'Nope'; choose one of NGOpt, DiscreteOnePlusOne, PortfolioDiscreteOnePlusOne"):
+    with pytest.raises(
+        ConfigError,
+        match="unknown optimizer 'Nope'; choose one of NGOpt, DiscreteOnePlusOne, PortfolioDiscreteOnePlusOne",
+    ):
         registry().get("designer", "nevergrad").spec.create(optimizer="Nope")
 
 
 def test_nevergrad_hears_of_every_proposal_it_made():
     """Invalid and repeated proposals are told (penalty, known reward), so asks and tells balance."""
     pytest.importorskip("nevergrad")
-    designer = registry().get("designer", "nevergrad").spec.create(optimizer="DiscreteOnePlusOne", population=10, budget=300, seed=designer_seed(0))
+    designer = (
+        registry()
+        .get("designer", "nevergrad")
+        .spec.create(optimizer="DiscreteOnePlusOne", population=10, budget=300, seed=designer_seed(0))
+    )
     env = SumOfVoxels(shape=(5, 5))
     drive(designer, env, 10)
     optimizer = designer.optimizer
@@ -106,7 +116,9 @@ def test_ribs_archive_holds_the_bodies_descriptors():
     pytest.importorskip("ribs")
     from gdabench.designers.ecosystem.pyribs_designer import decode
 
-    designer = registry().get("designer", "ribs-map-elites").spec.create(population=10, budget=200, seed=designer_seed(0))
+    designer = (
+        registry().get("designer", "ribs-map-elites").spec.create(population=10, budget=200, seed=designer_seed(0))
+    )
     env = SumOfVoxels(shape=(5, 5))
     drive(designer, env, 5)
     data = designer.archive.data()

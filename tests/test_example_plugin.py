@@ -9,7 +9,6 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from test_plugins import gdabench_cli, pip_install
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "plugins" / "gdabench-mapelites"
@@ -23,10 +22,22 @@ def site(tmp_path_factory) -> Path:
 def test_listed_with_its_package_and_runs_in_compare(site, tmp_path):
     listing = gdabench_cli("list", "designers", path=site)
     assert listing.returncode == 0, listing.stderr
-    line = next(l for l in listing.stdout.splitlines() if "map-elites" in l)
+    line = next(ln for ln in listing.stdout.splitlines() if "map-elites" in ln)
     assert "gdabench-mapelites 0.1.0" in line
     out = tmp_path / "run"
-    run = gdabench_cli("compare", "--designers", "map-elites,ga", "--env", "simple", "--budget", "100", "--out", str(out), "-q", path=site)
+    run = gdabench_cli(
+        "compare",
+        "--designers",
+        "map-elites,ga",
+        "--env",
+        "simple",
+        "--budget",
+        "100",
+        "--out",
+        str(out),
+        "-q",
+        path=site,
+    )
     assert run.returncode == 0, run.stderr
     meta = json.loads((out / "run.json").read_text())
     assert meta["versions"]["plugins"]["gdabench-mapelites"] == "0.1.0"

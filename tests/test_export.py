@@ -15,10 +15,11 @@ from typer.testing import CliRunner
 
 from gdabench.cli import app
 from gdabench.errors import ConfigError
-from gdabench.statuses import COUNTED
-from gdabench.report.export import _dat_block, export_run
+from gdabench.report.export import dat_block, export_run
 from gdabench.report.runtimes import run_traces
-from stat_tables import small_run, table
+from gdabench.statuses import COUNTED
+
+from support.stat_tables import small_run, table
 
 ioh = pytest.importorskip("ioh")
 iohinspector = pytest.importorskip("iohinspector")
@@ -59,7 +60,9 @@ def test_iohinspector_reads_every_run_as_in_the_parquet(run, exported):
             assert row.best_y == trace.final
             # the best-so-far IOHinspector reconstructs equals the parquet's at every logged evaluation
             logged = data[data["data_id"] == row.data_id]
-            parquet = frame[(frame["designer"] == designer) & (frame["seed"] == seed) & frame["status"].isin(COUNTED)].set_index("n_evals")
+            parquet = frame[
+                (frame["designer"] == designer) & (frame["seed"] == seed) & frame["status"].isin(COUNTED)
+            ].set_index("n_evals")
             for evaluations, raw_y in zip(logged["evaluations"], logged["raw_y"]):
                 assert raw_y == parquet.loc[evaluations, "best_so_far"] == trace.curve[evaluations - 1]
             improving = [1] + [n + 1 for n in range(1, 60) if trace.curve[n] > trace.curve[n - 1]]
@@ -81,7 +84,9 @@ def test_json_index_records_seed_and_best_body(run, exported):
 def test_same_lines_as_the_ioh_logger_writes(run, exported, tmp_path):
     """Replay one run's rewards through ioh's own Analyzer logger and compare the files."""
     frame = run.load_evaluations()
-    rows = frame[(frame["designer"] == "random") & (frame["seed"] == 2) & frame["status"].isin(COUNTED)].sort_values("n_evals")
+    rows = frame[(frame["designer"] == "random") & (frame["seed"] == 2) & frame["status"].isin(COUNTED)].sort_values(
+        "n_evals"
+    )
     rewards = iter(rows["reward"].tolist())
     ioh.problem.wrap_integer_problem(lambda x: next(rewards), "gdabench_replay", ioh.OptimizationType.MAX, lb=0, ub=4)
     problem = ioh.get_problem("gdabench_replay", instance=1, dimension=25, problem_class=ioh.ProblemClass.INTEGER)
@@ -97,7 +102,11 @@ def test_same_lines_as_the_ioh_logger_writes(run, exported, tmp_path):
     assert set(reference) <= set(ours) and reference["attributes"] == ours["attributes"]
     ref_run, our_run = reference["scenarios"][0]["runs"][0], ours["scenarios"][0]["runs"][2]
     assert set(ref_run) <= set(our_run)
-    assert (ref_run["evals"], ref_run["best"]["evals"], ref_run["best"]["y"]) == (our_run["evals"], our_run["best"]["evals"], our_run["best"]["y"])
+    assert (ref_run["evals"], ref_run["best"]["evals"], ref_run["best"]["y"]) == (
+        our_run["evals"],
+        our_run["best"]["evals"],
+        our_run["best"]["y"],
+    )
 
     def block(text: str) -> list[tuple[int, float]]:
         lines = [line.split() for line in text.splitlines() if not line.startswith("evaluations")]
@@ -112,7 +121,7 @@ def test_same_lines_as_the_ioh_logger_writes(run, exported, tmp_path):
 
 def test_failed_evaluations_are_minus_infinity_until_the_first_success():
     (trace,) = run_traces(table({("e", "a", 0): [math.nan, 2.0, math.nan, 1.0]}))
-    assert _dat_block(trace) == "evaluations raw_y\n1 -inf\n2 2.0\n4 2.0\n"
+    assert dat_block(trace) == "evaluations raw_y\n1 -inf\n2 2.0\n4 2.0\n"
 
 
 def test_several_environments_are_several_problems(run, tmp_path):
@@ -148,7 +157,9 @@ def test_cli_export_and_its_errors(run, tmp_path):
     ]:
         result = runner.invoke(app, ["export", str(run.path), *args])
         assert result.exit_code == 2, result.output
-        assert result.output.strip().splitlines() == [f"error: {result.output.strip()[7:]}"] and message in result.output
+        assert (
+            result.output.strip().splitlines() == [f"error: {result.output.strip()[7:]}"] and message in result.output
+        )
     missing = runner.invoke(app, ["export", str(tmp_path / "nowhere")])
     assert missing.exit_code == 2 and missing.output.startswith("error:")
     with pytest.raises(ConfigError):

@@ -110,7 +110,11 @@ def test_children_differ_from_parents_and_are_valid_and_unique():
 
 def test_same_seed_same_bodies_different_seed_different_bodies():
     def texts(seed):
-        return [b.text for gen, _, _ in drive(GeneticAlgorithm(population=25, budget=200, seed=designer_seed(seed)), 200) for b in gen]
+        return [
+            b.text
+            for gen, _, _ in drive(GeneticAlgorithm(population=25, budget=200, seed=designer_seed(seed)), 200)
+            for b in gen
+        ]
 
     assert texts(5) == texts(5)
     assert texts(5) != texts(6)

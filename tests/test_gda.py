@@ -20,20 +20,18 @@ from torch._dynamo.utils import counters
 
 from gdabench import Body, ConfigError, make_designer, random_body
 from gdabench.body import categorize
-from gdabench.designers.gda import GenerationalDiffusion
-from gdabench.designers.gda import designer as gda_designer
+from gdabench.designers.gda import GenerationalDiffusion, designer as gda_designer, speculation
 from gdabench.designers.gda.backprop import FastUNet, module_layout
 from gdabench.designers.gda.encoding import EVOGYM_TO_MODEL, decode, encode, published_reencoding
 from gdabench.designers.gda.model import UNet, parameter_count
+from gdabench.designers.gda.quotas import share_counts
 from gdabench.designers.gda.sampling import ancestral_sample, ddim_sample, denoise, noised
 from gdabench.designers.gda.schedule import make_schedule
-from gdabench.designers.gda import speculation
-from gdabench.designers.gda.quotas import share_counts
 from gdabench.designers.gda.surrogate import ridge_predictor
 from gdabench.designers.gda.training import Trainer, TrainerSpec, TrainJob, repeat_to
 from gdabench.torch_runtime import resolve_device, torch_threads
 
-from gda_reference import RefUNet
+from support.gda_reference import RefUNet
 
 FAST = {"steps": 50, "epochs": 2}  # a short diffusion for loop tests
 EPOCHS_ONE_BODY = 120
@@ -213,7 +211,8 @@ def one_body_model():
     trainer.reset(generator)
     data = torch.from_numpy(encode(TARGET.voxels))[None, None]
     result = trainer.fit(data, epochs=EPOCHS_ONE_BODY, generator=generator)
-    samples = decode(ancestral_sample(trainer.model, schedule, 60, (5, 5), generator, torch.device("cpu"))[:, 0].numpy())
+    drawn = ancestral_sample(trainer.model, schedule, 60, (5, 5), generator, torch.device("cpu"))
+    samples = decode(drawn[:, 0].numpy())
     return result, samples, trainer
 
 
@@ -280,7 +279,9 @@ def test_target_mse_stops_training_when_reached():
     trainer = Trainer(make_schedule("linear", 500, 1e-4, 0.02))
     generator = torch.Generator().manual_seed(0)
     trainer.reset(generator)
-    result = trainer.fit(torch.from_numpy(encode(TARGET.voxels))[None, None], epochs=100, generator=generator, target_loss=0.3)
+    result = trainer.fit(
+        torch.from_numpy(encode(TARGET.voxels))[None, None], epochs=100, generator=generator, target_loss=0.3
+    )
     assert result.epochs < 100 and result.loss <= 0.3
     designer = gda(target_mse=5.0)  # reached by any first epoch
     run(designer, 2)
@@ -292,7 +293,12 @@ def test_fit_stops_when_asked_to():
     generator = torch.Generator().manual_seed(0)
     trainer.reset(generator)
     asked = []
-    result = trainer.fit(torch.from_numpy(encode(TARGET.voxels))[None, None], epochs=10, generator=generator, stop=lambda: len(asked.append(1) or asked) > 3)
+    result = trainer.fit(
+        torch.from_numpy(encode(TARGET.voxels))[None, None],
+        epochs=10,
+        generator=generator,
+        stop=lambda: len(asked.append(1) or asked) > 3,
+    )
     assert result.epochs == 3 and len(asked) == 4
 
 
@@ -393,11 +399,20 @@ def test_pickled_designer_resumes_exactly(params):
 
 
 def test_variants_and_options_run():
-    for designer in (gda(schedule="cosine"), gda(sampler="ddim", sample_steps=10), gda(sample_batch=7), gda(temperature=0.5)):
+    for designer in (
+        gda(schedule="cosine"),
+        gda(sampler="ddim", sample_steps=10),
+        gda(sample_batch=7),
+        gda(temperature=0.5),
+    ):
         history = run(designer, 2)
         assert all(len(gen) == 10 and all(b.is_valid() for b in gen) for gen in history)
     fast = make_designer("gda-fast", seed=0, shape=(5, 5), population=10, budget=1000)
-    assert isinstance(fast, GenerationalDiffusion) and (fast.config.pool, fast.config.max_samples, fast.config.sampler) == (1000, 2000, "ddim")
+    assert isinstance(fast, GenerationalDiffusion) and (
+        fast.config.pool,
+        fast.config.max_samples,
+        fast.config.sampler,
+    ) == (1000, 2000, "ddim")
     fast = make_designer("gda-fast", seed=0, shape=(5, 5), population=10, budget=1000, steps=50, pool=40)
     assert len(run(fast, 2)[-1]) == 10
 
@@ -448,7 +463,9 @@ def test_bodies_left_in_the_pool_can_be_proposed_later(monkeypatch, rated_pools)
     rng = np.random.default_rng(0)
     stream = list({b.hash: b for b in (random_body(rng) for _ in range(200)) if b.hash not in proposed}.values())[:120]
     # a "model" that draws the same bodies in the same order every pass
-    same_bodies = lambda model, schedule, n, *rest, **kw: torch.from_numpy(encode(np.stack([stream[i % len(stream)].voxels for i in range(n)])))[:, None]  # noqa: E731
+    def same_bodies(model, schedule, n, *rest, **kw):
+        return torch.from_numpy(encode(np.stack([stream[i % len(stream)].voxels for i in range(n)])))[:, None]
+
     monkeypatch.setattr(gda_designer, "ancestral_sample", same_bodies)
     first = designer.ask()
     designer.tell(first, [reward(b) for b in first])
@@ -518,7 +535,9 @@ def test_compiled_sampling_matches_the_network_for_any_pass_size():
     with torch.inference_mode():
         for n in (50, 90, 256, 7):
             x = torch.randn(n, 1, 5, 5, generator=torch.Generator().manual_seed(n))
-            torch.testing.assert_close(forward(x, feats), trainer.model.forward_features(x, feats), rtol=1e-4, atol=1e-5)
+            torch.testing.assert_close(
+                forward(x, feats), trainer.model.forward_features(x, feats), rtol=1e-4, atol=1e-5
+            )
     assert counters["stats"]["unique_graphs"] == 2  # inductor's convolution splits sizes 16+ from 2-15
     assert trainer.compile  # compiled, not fallen back to eager
 
@@ -599,7 +618,11 @@ def test_a_dead_training_process_costs_the_overlap_not_the_run():
             for process in training_processes():
                 process.kill()
                 process.join()  # gone, not merely signalled: the run must notice it in this generation
-        with pytest.warns(RuntimeWarning, match="training in this process") if generation == 3 else contextlib.nullcontext():
+        with (
+            pytest.warns(RuntimeWarning, match="training in this process")
+            if generation == 3
+            else contextlib.nullcontext()
+        ):
             proposed = designer.ask()
         bodies.append([b.hash for b in proposed])
         ahead.append(designer.proposal_info()[0].get("trained_ahead", False))
@@ -620,7 +643,10 @@ def test_denoising_from_a_partly_noised_body_recovers_it_given_the_exact_noise_p
     for t in (1, 40, 150, 499):
         x = noised(schedule, x0.expand(8, 1, 5, 5), t, generator)
         assert not torch.allclose(x, x0.expand_as(x), atol=1e-3)
-        assert all(np.array_equal(d, TARGET.voxels) for d in decode(denoise(Oracle(x0, schedule), schedule, x, t, generator)[:, 0].numpy()))
+        assert all(
+            np.array_equal(d, TARGET.voxels)
+            for d in decode(denoise(Oracle(x0, schedule), schedule, x, t, generator)[:, 0].numpy())
+        )
 
 
 @pytest.mark.xdist_group("one_body_model")
@@ -645,7 +671,9 @@ def test_crossover_children_are_interpolations_of_two_survivors(monkeypatch):
     assert sources[:4] == ["crossover"] * 4 and "crossover" not in sources[4:]
     weights = np.linspace(0, 1, 2001, dtype=np.float32)[:, None, None]
     for child in bodies[:4]:
-        mixes = [decode(w * a + (1 - w) * b) for i, a in enumerate(parents) for b in parents[i + 1 :] for w in (weights,)]
+        mixes = [
+            decode(w * a + (1 - w) * b) for i, a in enumerate(parents) for b in parents[i + 1 :] for w in (weights,)
+        ]
         assert any((mix == child.voxels).all(axis=(1, 2)).any() for mix in mixes)
         assert all(not np.array_equal(child.voxels, decode(p)) for p in parents)
 
@@ -694,7 +722,9 @@ def test_category_filtered_sampling_fills_each_share_in_sampling_order(monkeypat
     # the model's stream: 20 novel shapes, then only 2 near-copies, then 10 new materials
     stream = by_category[3][:20] + by_category[1][:2] + by_category[2][:10]
     drawn = lambda n: np.stack([stream.pop(0) if stream else np.zeros((5, 5), np.int8) for _ in range(n)])  # noqa: E731
-    monkeypatch.setattr(gda_designer, "ancestral_sample", lambda model, schedule, n, *rest: torch.from_numpy(encode(drawn(n)))[:, None])
+    monkeypatch.setattr(
+        gda_designer, "ancestral_sample", lambda model, schedule, n, *rest: torch.from_numpy(encode(drawn(n)))[:, None]
+    )
     bodies = [b.voxels for b in designer.ask()]
     # quotas 3/3/4 of 10: both near-copies, the first 3 new materials, the first 4 novel shapes, and the
     # missing near-copy filled by the first surplus body in sampling order (the 5th novel shape)

@@ -10,7 +10,19 @@ from gdabench.cli import app
 
 def test_compare_ga_and_gda_on_simple_end_to_end(tmp_path):
     out = tmp_path / "run"
-    args = ["compare", "--designers", "ga,gda", "--env", "simple", "--seeds", "0,1,2", "--budget", "40", "--population", "10"]
+    args = [
+        "compare",
+        "--designers",
+        "ga,gda",
+        "--env",
+        "simple",
+        "--seeds",
+        "0,1,2",
+        "--budget",
+        "40",
+        "--population",
+        "10",
+    ]
     args += ["-D", "gda.epochs=2", "-D", "gda.steps=50", "--out", str(out), "-q"]
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 0, result.output
@@ -27,7 +39,9 @@ def test_compare_ga_and_gda_on_simple_end_to_end(tmp_path):
 
 
 def test_gda_parameter_errors_are_one_line(tmp_path):
-    result = CliRunner().invoke(app, ["compare", "--designers", "gda[sampler=euler]", "--out", str(tmp_path / "x"), "-q"])
+    result = CliRunner().invoke(
+        app, ["compare", "--designers", "gda[sampler=euler]", "--out", str(tmp_path / "x"), "-q"]
+    )
     assert result.exit_code == 2
     assert "unknown sampler" in result.output and "Traceback" not in result.output
 
@@ -37,8 +51,23 @@ def test_gda_runs_on_bodies_smaller_than_3x3(tmp_path):
     (whose only valid bodies are 3 and 4: generation 0 draws one, the model samples the other)."""
     for shape, population, budget in (("2x2", 10, 20), ("1x5", 10, 20), ("1x1", 1, 2)):
         out = tmp_path / shape
-        result = CliRunner().invoke(app, ["run", "gda[epochs=2,steps=5]", "--shape", shape, "--budget", str(budget),
-                                          "--population", str(population), "--out", str(out), "-q", "--no-report"])
+        result = CliRunner().invoke(
+            app,
+            [
+                "run",
+                "gda[epochs=2,steps=5]",
+                "--shape",
+                shape,
+                "--budget",
+                str(budget),
+                "--population",
+                str(population),
+                "--out",
+                str(out),
+                "-q",
+                "--no-report",
+            ],
+        )
         assert result.exit_code == 0, result.output
         rows = pd.read_parquet(out / "evaluations.parquet")
         assert rows["n_evals"].max() == budget and (rows.loc[rows["generation"] > 0, "source"] == "sampled").any()

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from scipy.stats import binom
 
-from gdabench.report.stats import fewest_for, median_band, median_interval, order_statistic_ranks
 from gdabench.report.tables import with_interval
+from gdabench.stats.core import fewest_for, median_band, median_interval, order_statistic_ranks
 
 
 @pytest.mark.parametrize("n", [1, 2, 5, 6, 7, 10, 15, 20, 40])

@@ -6,7 +6,8 @@ import json
 from dataclasses import replace
 
 import pytest
-from scripts import load_script
+
+from support.scripts import load_script
 
 
 @pytest.fixture(scope="module")
@@ -15,10 +16,21 @@ def table():
 
 
 def test_runs_each_pair_once_and_prints_a_row_per_pair(table, tmp_path, capsys):
-    args = ["--designers", "ga,random", "--envs", "nk[k=1],target", "--seeds", "0,1", "--budget", "40", "--population", "10"]
+    args = [
+        "--designers",
+        "ga,random",
+        "--envs",
+        "nk[k=1],target",
+        "--seeds",
+        "0,1",
+        "--budget",
+        "40",
+        "--population",
+        "10",
+    ]
     assert table.main([*args, "--root", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    rows = [line for line in out.splitlines() if line.startswith("| nk") or line.startswith("| target")]
+    rows = [line for line in out.splitlines() if line.startswith(("| nk", "| target"))]
     assert [r.split(" | ")[2] for r in rows] == ["ga", "random", "ga", "random"]
     assert all("/2 |" in r for r in rows)  # seeds at optimum out of 2
     assert "| target | 100 |" in out
@@ -33,7 +45,18 @@ def test_seeds_added_later_count_in_the_designers_row(table, tmp_path, capsys):
     from gdabench import Experiment
     from gdabench.running.runner import compare
 
-    base = ["--designers", "random", "--envs", "target", "--budget", "20", "--population", "10", "--root", str(tmp_path)]
+    base = [
+        "--designers",
+        "random",
+        "--envs",
+        "target",
+        "--budget",
+        "20",
+        "--population",
+        "10",
+        "--root",
+        str(tmp_path),
+    ]
     assert table.main([*base, "--seeds", "0"]) == 0
     first = Experiment.from_json(json.loads((tmp_path / "random" / "run.json").read_text())["config"])
     compare(replace(first, seeds=(1, 2)), tmp_path / "random.seeds-1-2")  # where earlier versions put added seeds
@@ -53,12 +76,17 @@ def test_refuses_to_mix_settings_and_reports_unknown_designers(table, tmp_path, 
     assert "unknown designer 'nosuch'" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize(("raised", "code", "fragment"), [
-    ("Terminated", 143, "terminated (SIGTERM); the runs so far are kept, and the same command resumes them"),
-    ("KeyboardInterrupt", 130, "interrupted; the runs so far are kept"),
-    ("TrialError", 1, "a trial failed"),
-])
-def test_a_run_stopped_or_failed_is_one_line_with_gdabench_exit_codes(table, tmp_path, capsys, monkeypatch, raised, code, fragment):
+@pytest.mark.parametrize(
+    ("raised", "code", "fragment"),
+    [
+        ("Terminated", 143, "terminated (SIGTERM); the runs so far are kept, and the same command resumes them"),
+        ("KeyboardInterrupt", 130, "interrupted; the runs so far are kept"),
+        ("TrialError", 1, "a trial failed"),
+    ],
+)
+def test_a_run_stopped_or_failed_is_one_line_with_gdabench_exit_codes(
+    table, tmp_path, capsys, monkeypatch, raised, code, fragment
+):
     from gdabench import errors
 
     def stop(*args, **kwargs):
@@ -76,13 +104,28 @@ def test_an_interrupted_run_is_finished_before_seeds_are_added(table, tmp_path, 
     from gdabench import Experiment
     from gdabench.running.runner import compare
 
-    base = ["--designers", "random", "--envs", "target", "--budget", "20", "--population", "10", "--root", str(tmp_path)]
+    base = [
+        "--designers",
+        "random",
+        "--envs",
+        "target",
+        "--budget",
+        "20",
+        "--population",
+        "10",
+        "--root",
+        str(tmp_path),
+    ]
     assert table.main([*base, "--seeds", "0"]) == 0
     first = Experiment.from_json(json.loads((tmp_path / "random" / "run.json").read_text())["config"])
     compare(replace(first, seeds=(1,)), tmp_path / "random.seeds-1")
     meta = tmp_path / "random.seeds-1" / "run.json"
     meta.write_text(json.dumps({**json.loads(meta.read_text()), "status": "interrupted"}))
     calls = []
-    monkeypatch.setattr(sys.modules[table.ensure_runs.__module__], "compare", lambda experiment, out, **kw: calls.append((out.name, experiment.seeds)))
+    monkeypatch.setattr(
+        sys.modules[table.ensure_runs.__module__],
+        "compare",
+        lambda experiment, out, **kw: calls.append((out.name, experiment.seeds)),
+    )
     table.main([*base, "--seeds", "0..2"])
     assert calls == [("random.seeds-1", (1,)), ("random", (0, 2))]

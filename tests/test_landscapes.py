@@ -11,12 +11,12 @@ import pytest
 from typer.testing import CliRunner
 
 from gdabench import ConfigError, Experiment, PluginChoice, make_env, registry
-from gdabench.running.runner import compare
 from gdabench.body import Body, is_connected, random_body
 from gdabench.cli import app
 from gdabench.envs import nk_optimum
-from gdabench.errors import InvalidBodyError
 from gdabench.envs.target import DEFAULT_TARGET
+from gdabench.errors import InvalidBodyError
+from gdabench.running.runner import compare
 from gdabench.testing import check_environment
 
 # the peaks exactly as issue 10 states them (rows top to bottom, Evolution Gym codes)
@@ -125,7 +125,10 @@ def test_target_from_text_and_from_file_for_any_shape(tmp_path):
 @pytest.mark.parametrize(
     "params, message",
     [
-        ({"shape": (4, 4), "target": "11111/13241/14031/20002/40004"}, "target .* is 5x5 but bodies are 4x4; give target="),
+        (
+            {"shape": (4, 4), "target": "11111/13241/14031/20002/40004"},
+            "target .* is 5x5 but bodies are 4x4; give target=",
+        ),
         ({"target": "11111/00000/11111/11111/11113"}, "not a valid body \\(voxels not connected\\)"),
         ({"target": "11111/11111/11111/11111/11111"}, "not a valid body \\(no actuator\\)"),
         ({"target": "no-such-file.txt"}, "nor is it an existing file"),
@@ -173,7 +176,9 @@ def valid_mask(bodies: np.ndarray) -> np.ndarray:
     n = bodies.shape[1] * bodies.shape[2]
     flat = bodies.reshape(len(bodies), n)
     occupancy = (flat != 0).astype(np.int64) @ (1 << np.arange(n))
-    connected = np.array([m > 0 and is_connected(((m >> np.arange(n)) & 1).reshape(bodies.shape[1:])) for m in range(1 << n)])
+    connected = np.array(
+        [m > 0 and is_connected(((m >> np.arange(n)) & 1).reshape(bodies.shape[1:])) for m in range(1 << n)]
+    )
     return connected[occupancy] & ((flat == 3) | (flat == 4)).any(axis=1)
 
 
@@ -272,7 +277,9 @@ def test_nk_bad_parameters(params, message):
     ],
 )
 def test_cli_reports_bad_landscape_parameters_in_one_line(env, extra, message, tmp_path):
-    result = CliRunner().invoke(app, ["compare", "--designers", "ga", "--env", env, "-q", "-o", str(tmp_path / "run"), *extra])
+    result = CliRunner().invoke(
+        app, ["compare", "--designers", "ga", "--env", env, "-q", "-o", str(tmp_path / "run"), *extra]
+    )
     assert result.exit_code == 2
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error:") and message in lines[0]
@@ -282,7 +289,12 @@ def test_cli_reports_bad_landscape_parameters_in_one_line(env, extra, message, t
 def test_summary_reports_evaluations_to_the_nk_optimum(tmp_path):
     """On a 2x3 body (15,625 bodies) the GA finds the exact optimum, and the summary says when."""
     experiment = Experiment(
-        designers=(PluginChoice("ga"),), envs=PluginChoice("nk", {"k": 1}, "nk[k=1]"), shape=(2, 3), population=10, budget=300, seeds=(0, 1)
+        designers=(PluginChoice("ga"),),
+        envs=PluginChoice("nk", {"k": 1}, "nk[k=1]"),
+        shape=(2, 3),
+        population=10,
+        budget=300,
+        seeds=(0, 1),
     )
     run = compare(experiment, tmp_path / "run")
     optimum = make_env("nk", shape=(2, 3), k=1).optimum
@@ -306,7 +318,9 @@ def test_the_default_target_scales_to_other_shapes():
     from gdabench.envs.target import DEFAULT_TARGET, default_target
 
     big = make_env("target", shape=(10, 10))
-    assert big.target == default_target((10, 10)) and big.target.is_valid() and big.evaluate(big.target, seed=0) == 100.0
+    assert (
+        big.target == default_target((10, 10)) and big.target.is_valid() and big.evaluate(big.target, seed=0) == 100.0
+    )
     blocks = np.asarray(big.target.voxels).reshape(5, 2, 5, 2)
     assert (blocks == np.asarray(DEFAULT_TARGET.voxels)[:, None, :, None]).all()  # each voxel a 2x2 block
     assert default_target((5, 5)) == DEFAULT_TARGET and default_target((8, 12)).shape == (8, 12)

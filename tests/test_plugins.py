@@ -21,7 +21,18 @@ FIXTURE = Path(__file__).parent / "fixtures" / "hello_plugin"
 def pip_install(source: Path, target: Path) -> Path:
     """Install a plugin package with pip into ``target`` (a directory put on PYTHONPATH)."""
     subprocess.run(
-        [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation", "--target", str(target), str(source)],
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--no-deps",
+            "--no-build-isolation",
+            "--target",
+            str(target),
+            str(source),
+        ],
         check=True,
         capture_output=True,
     )
@@ -67,13 +78,25 @@ def hello_site(tmp_path_factory) -> Path:
 def test_installed_entry_point_is_discovered_with_its_package(hello_site, tmp_path):
     listing = gdabench_cli("list", path=hello_site)
     assert listing.returncode == 0, listing.stderr
-    line = next(l for l in listing.stdout.splitlines() if "hello-climber" in l)
+    line = next(ln for ln in listing.stdout.splitlines() if "hello-climber" in ln)
     assert "gdabench-hello-plugin 1.2.3" in line and "Hill climber from a third-party package" in line
     assert "hello-count" in listing.stdout
-    ga_line = next(l for l in listing.stdout.splitlines() if l.strip().startswith("ga "))
+    ga_line = next(ln for ln in listing.stdout.splitlines() if ln.strip().startswith("ga "))
     assert "gdabench" in ga_line
     out = tmp_path / "run"
-    run = gdabench_cli("compare", "--designers", "hello-climber,ga", "--env", "hello-count", "--budget", "50", "--out", str(out), "-q", path=hello_site)
+    run = gdabench_cli(
+        "compare",
+        "--designers",
+        "hello-climber,ga",
+        "--env",
+        "hello-count",
+        "--budget",
+        "50",
+        "--out",
+        str(out),
+        "-q",
+        path=hello_site,
+    )
     assert run.returncode == 0, run.stderr
     import json
 
@@ -94,7 +117,7 @@ def test_broken_plugin_gives_one_line_naming_it(tmp_path):
     site = pip_install(src, tmp_path / "site")
     result = gdabench_cli("list", path=site)
     assert result.returncode == 2
-    lines = [l for l in result.stderr.splitlines() if l.strip()]
+    lines = [ln for ln in result.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1
     assert "plugin 'broken_plugin' from package gdabench-broken failed to import" in lines[0]
     assert "ImportError: needs libfoo" in lines[0] and "Traceback" not in result.stderr
@@ -130,7 +153,7 @@ def test_a_misspelt_hook_is_one_line_naming_plugin_and_function(tmp_path):
         """
     site = pip_install(make_package(tmp_path / "src", "gdabench-typo", "typo_plugin", body), tmp_path / "site")
     result = gdabench_cli("list", path=site)
-    lines = [l for l in result.stderr.splitlines() if l.strip()]
+    lines = [ln for ln in result.stderr.splitlines() if ln.strip()]
     assert result.returncode == 2 and len(lines) == 1, result.stderr
     assert "plugin 'typo_plugin' from package gdabench-typo: gdabench_designer() is not a gdabench hook" in lines[0]
     assert "gdabench_designers" in lines[0]  # the hooks it could have meant
@@ -141,7 +164,10 @@ def test_a_hook_without_its_marker_is_refused():
         def gdabench_designers(self):
             return []
 
-    with pytest.raises(PluginError, match=r"plugin 'quiet' from package <in-process>: gdabench_designers\(\) lacks the @gdabench.hookimpl marker"):
+    with pytest.raises(
+        PluginError,
+        match=r"plugin 'quiet' from package <in-process>: gdabench_designers\(\) lacks the @gdabench.hookimpl marker",
+    ):
         Registry(entry_points=False, extra_plugins={"quiet": Unmarked()})
 
 

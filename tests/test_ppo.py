@@ -18,10 +18,10 @@ import pytest
 import torch
 from typer.testing import CliRunner
 
+from gdabench.batched import ArrayBodies, GymBodies
 from gdabench.body import as_body
 from gdabench.cli import app
 from gdabench.controllers.ppo import PPO, PPOConfig, replay
-from gdabench.envs.batched import ArrayBodies, GymBodies
 from gdabench.controllers.ppo.evaluation import episode_score
 from gdabench.controllers.ppo.policy_file import META_FILE, WEIGHTS_FILE
 from gdabench.controllers.ppo.train import train
@@ -33,7 +33,7 @@ from gdabench.envs.walker.sim import WalkerPhysics
 from gdabench.errors import ConfigError
 
 WALKER = as_body("00000/44444/44444/40004/40004")
-SMALL = dict(timesteps=256, eval_interval=128)  # two rollouts, three evaluations
+SMALL = {"timesteps": 256, "eval_interval": 128}  # two rollouts, three evaluations
 
 
 class Target(gymnasium.Env):
@@ -106,17 +106,21 @@ def test_same_seed_same_reward_and_the_caller_rng_is_untouched():
 
 
 #: Evolution Gym 1.0's schedule: 4 environments, 4 minibatches, linear learning-rate decay, normalised observations
-EVOGYM1 = dict(n_envs=4, batch_size=128, lr_schedule="linear", normalize_obs=True)
+EVOGYM1 = {"n_envs": 4, "batch_size": 128, "lr_schedule": "linear", "normalize_obs": True}
 
 
 @pytest.mark.parametrize("schedule", [{}, EVOGYM1], ids=["evogym2", "evogym1"])
 def test_saved_policy_reloads_and_reproduces_its_reward(tmp_path, schedule):
-    settings = dict(timesteps=256 * schedule.get("n_envs", 1), eval_interval=128 * schedule.get("n_envs", 1), **schedule)
+    settings = dict(
+        timesteps=256 * schedule.get("n_envs", 1), eval_interval=128 * schedule.get("n_envs", 1), **schedule
+    )
     walker, controller = Walker(), PPO(**settings)
     scored = walker.evaluate(WALKER, seed=3, controller=controller, workdir=tmp_path)
     assert (tmp_path / WEIGHTS_FILE).is_file() and (tmp_path / META_FILE).is_file()
     meta = json.loads((tmp_path / META_FILE).read_text())
-    assert meta["reward"] == scored.reward and len(meta["evaluations"]) == 3 and meta["timesteps"] == settings["timesteps"]
+    assert (
+        meta["reward"] == scored.reward and len(meta["evaluations"]) == 3 and meta["timesteps"] == settings["timesteps"]
+    )
     saved = torch.load(tmp_path / WEIGHTS_FILE, weights_only=True)["state_dict"]
     assert (saved["obs_var"] != 1).any() == bool(schedule)  # the statistics learned travel with the policy
 
@@ -134,7 +138,9 @@ def test_parallel_environments_train_seeded_with_finite_rewards(monkeypatch):
     config = PPOConfig(timesteps=512, n_envs=2, eval_interval=256)  # two rollouts of 2 x 128 steps
     make_env = functools.partial(make_walker, WALKER)
     threads, step = set(), LockstepUpdate.__call__
-    monkeypatch.setattr(LockstepUpdate, "__call__", lambda self, b: threads.add(torch.get_num_threads()) or step(self, b))
+    monkeypatch.setattr(
+        LockstepUpdate, "__call__", lambda self, b: threads.add(torch.get_num_threads()) or step(self, b)
+    )
     [a] = train(config, gym(make_env), [5])
     assert threads == {config.threads}
     [b] = train(config, gym(make_env), [5])
@@ -189,14 +195,14 @@ def test_episode_end_conventions():
 @pytest.mark.parametrize(
     "params, message",
     [
-        (dict(timesteps=100), "less than one rollout"),
-        (dict(timesteps=512, n_envs=8), "less than one rollout"),
-        (dict(learning_rate=-1e-3), "learning_rate must be positive"),
-        (dict(device="tpu"), "unknown device 'tpu'"),
-        (dict(device="quantum:0"), "unknown device"),
-        (dict(clip_range=0), "clip_range"),
-        (dict(episode_end="sometimes"), "episode_end"),
-        (dict(wings=2), "unexpected keyword"),
+        ({"timesteps": 100}, "less than one rollout"),
+        ({"timesteps": 512, "n_envs": 8}, "less than one rollout"),
+        ({"learning_rate": -1e-3}, "learning_rate must be positive"),
+        ({"device": "tpu"}, "unknown device 'tpu'"),
+        ({"device": "quantum:0"}, "unknown device"),
+        ({"clip_range": 0}, "clip_range"),
+        ({"episode_end": "sometimes"}, "episode_end"),
+        ({"wings": 2}, "unexpected keyword"),
     ],
 )
 def test_bad_settings_fail_at_configuration_in_one_line(params, message):
@@ -213,21 +219,52 @@ def test_asking_for_a_missing_gpu_is_one_line():
 
 def test_cli_rejects_bad_settings_before_running(tmp_path):
     result = CliRunner().invoke(
-        app, ["compare", "--designers", "ga", "--env", "walker", "--controller", "ppo", "-C", "learning_rate=-1", "--out", str(tmp_path / "r"), "-q"]
+        app,
+        [
+            "compare",
+            "--designers",
+            "ga",
+            "--env",
+            "walker",
+            "--controller",
+            "ppo",
+            "-C",
+            "learning_rate=-1",
+            "--out",
+            str(tmp_path / "r"),
+            "-q",
+        ],
     )
     assert result.exit_code == 2
     assert "learning_rate must be positive" in result.stderr and "Traceback" not in result.stderr
 
 
 def test_listing_controllers_does_not_import_torchrl():
-    code = "import sys; from gdabench.plugins import registry; names = [i.name for i in registry().items('controller')]; print('ppo' in names, 'torchrl' in sys.modules)"
+    code = (
+        "import sys; from gdabench.plugins import registry; names = [i.name for i in registry().items('controller')];"
+        " print('ppo' in names, 'torchrl' in sys.modules)"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
     assert out == ["True", "False"]
 
 
 def test_compare_with_ppo_saves_policies_and_replay_uses_them(tmp_path):
     run = tmp_path / "run"
-    args = ["compare", "--designers", "random", "--env", "walker", "--controller", "ppo", "-C", "timesteps=128", "--budget", "2", "--population", "2"]
+    args = [
+        "compare",
+        "--designers",
+        "random",
+        "--env",
+        "walker",
+        "--controller",
+        "ppo",
+        "-C",
+        "timesteps=128",
+        "--budget",
+        "2",
+        "--population",
+        "2",
+    ]
     result = CliRunner().invoke(app, [*args, "--out", str(run), "-q", "--no-report"], catch_exceptions=False)
     assert result.exit_code == 0, result.stderr
     policies = sorted(run.glob("artifacts/*/*/" + WEIGHTS_FILE))
@@ -242,27 +279,63 @@ def test_compare_with_ppo_saves_policies_and_replay_uses_them(tmp_path):
 
 def test_a_body_two_trials_share_is_trained_once_and_both_keep_its_policy(tmp_path):
     run = tmp_path / "run"
-    args = ["compare", "--designers", "random,ga[survivors=1]", "--env", "walker", "--controller", "ppo", "-C", "timesteps=128",
-            "--budget", "2", "--population", "2", "--jobs", "1"]
+    args = [
+        "compare",
+        "--designers",
+        "random,ga[survivors=1]",
+        "--env",
+        "walker",
+        "--controller",
+        "ppo",
+        "-C",
+        "timesteps=128",
+        "--budget",
+        "2",
+        "--population",
+        "2",
+        "--jobs",
+        "1",
+    ]
     result = CliRunner().invoke(app, [*args, "--out", str(run), "-q", "--no-report"], catch_exceptions=False)
     assert result.exit_code == 0, result.stderr
     rows = pd.read_parquet(run / "evaluations.parquet")
     by_designer = rows.pivot(index="body", columns="designer", values="eval_seconds")
-    assert len(by_designer) == 2 and (by_designer["random"] == by_designer["ga[survivors=1]"]).all()  # one training, replayed
+    assert (
+        len(by_designer) == 2 and (by_designer["random"] == by_designer["ga[survivors=1]"]).all()
+    )  # one training, replayed
     assert len(sorted(run.glob("artifacts/*/*/" + WEIGHTS_FILE))) == 4  # each trial has the policies of its bodies
     replayed = CliRunner().invoke(app, ["replay", str(run), "--designer", "ga[survivors=1]"], catch_exceptions=False)
     assert replayed.exit_code == 0 and "reward" in replayed.stdout, replayed.stderr
 
 
 def test_a_generation_trains_in_lockstep_through_the_harness_with_the_table_of_body_by_body(tmp_path):
-    args = ["compare", "--designers", "random", "--env", "walker", "--controller", "ppo", "-C", "timesteps=128",
-            "--budget", "3", "--population", "3", "-q", "--no-report"]
+    args = [
+        "compare",
+        "--designers",
+        "random",
+        "--env",
+        "walker",
+        "--controller",
+        "ppo",
+        "-C",
+        "timesteps=128",
+        "--budget",
+        "3",
+        "--population",
+        "3",
+        "-q",
+        "--no-report",
+    ]
     tables = {}
     for name, extra in {"lockstep": [], "one at a time": ["--batch", "1"]}.items():
         result = CliRunner().invoke(app, [*args, "--out", str(tmp_path / name), *extra], catch_exceptions=False)
         assert result.exit_code == 0, result.stderr
         tables[name] = pd.read_parquet(tmp_path / name / "evaluations.parquet")
-    assert tables["lockstep"]["ppo_batch"].tolist() == [3, 3, 3] and tables["one at a time"]["ppo_batch"].tolist() == [1, 1, 1]
+    assert tables["lockstep"]["ppo_batch"].tolist() == [3, 3, 3] and tables["one at a time"]["ppo_batch"].tolist() == [
+        1,
+        1,
+        1,
+    ]
     assert tables["lockstep"]["reward"].tolist() == tables["one at a time"]["reward"].tolist()
     assert tables["lockstep"]["body"].tolist() == tables["one at a time"]["body"].tolist()
 

@@ -5,16 +5,17 @@ from __future__ import annotations
 
 import pytest
 from scipy.stats import wilcoxon
-from stat_tables import table
 from typer.testing import CliRunner
 
 from gdabench.cli import app
-from gdabench.config import Experiment, PluginChoice, Primary
 from gdabench.errors import ConfigError
-from gdabench.experiment_build import build_run
+from gdabench.experiment.build import build_run, significance_warnings
+from gdabench.experiment.config import Experiment, Primary
 from gdabench.report.build import write_report
 from gdabench.report.pairwise import holm, pairwise
-from gdabench.report.power import seeds_needed, significance_warnings
+from gdabench.stats.power import seeds_needed
+
+from support.stat_tables import table
 
 #: per seed, the best reward of three designers: a beats b on 6 of 7 seeds (exact p = 0.03125 alone)
 A = [5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 2.0]
@@ -40,7 +41,10 @@ def test_the_primary_comparison_is_tested_alone():
     assert list(others["p_holm"]) == pytest.approx(list(holm(list(others["p"]))))
     # without a primary comparison the same pair, Holm-corrected over three pairs, is not significant
     plain = pairwise(_frame()).set_index(["designer_a", "designer_b"])
-    assert plain.loc[("a", "b"), "p_holm"] == pytest.approx(min(1.0, 3 * alone)) and not plain.loc[("a", "b"), "significant"]
+    assert (
+        plain.loc[("a", "b"), "p_holm"] == pytest.approx(min(1.0, 3 * alone))
+        and not plain.loc[("a", "b"), "significant"]
+    )
     assert set(plain["role"]) == {"exploratory"}
 
 
@@ -61,7 +65,9 @@ def test_ties_are_counted_and_said():
 
 def test_experiment_file_primary_sets_the_seeds_from_the_power_analysis(tmp_path):
     path = tmp_path / "e.toml"
-    path.write_text('designers = ["ga", "gda", "random"]\nenv = "simple"\n[primary]\na = "gda"\nb = "ga"\neffect = 0.9\n')
+    path.write_text(
+        'designers = ["ga", "gda", "random"]\nenv = "simple"\n[primary]\na = "gda"\nb = "ga"\neffect = 0.9\n'
+    )
     experiment = build_run({"config": path}).experiment
     assert experiment.primary == Primary("gda", "ga", effect=0.9)
     assert experiment.seeds == tuple(range(seeds_needed(0.9)))
@@ -95,16 +101,16 @@ def test_compare_warns_before_the_run(tmp_path):
 
     with pytest.warns(UserWarning, match="no pair of designers can differ significantly with 3 seeds"):
         gdabench.compare("ga,random", "simple", seeds="0..2", budget=25, out=tmp_path / "api", progress=False)
-    result = CliRunner().invoke(app, ["compare", "-d", "ga,random", "--env", "simple", "--budget", "25", "--seeds", "0..4",
-                                      "--out", str(tmp_path / "run"), "-q", "--no-report"])  # fmt: skip
+    args = ["compare", "-d", "ga,random", "--env", "simple", "--budget", "25", "--seeds", "0..4"]
+    result = CliRunner().invoke(app, [*args, "--out", str(tmp_path / "run"), "-q", "--no-report"])
     assert result.exit_code == 0, result.output
     assert "warning: no pair of designers can differ significantly with 5 seeds" in " ".join(result.output.split())
 
 
 def test_the_report_tests_the_primary_comparison_and_says_when_it_was_named(tmp_path):
     out = tmp_path / "run"
-    result = CliRunner().invoke(app, ["compare", "-d", "ga,random", "--env", "simple", "--budget", "25", "--seeds", "0..5",
-                                      "--out", str(out), "-q", "--no-report"])  # fmt: skip
+    args = ["compare", "-d", "ga,random", "--env", "simple", "--budget", "25", "--seeds", "0..5"]
+    result = CliRunner().invoke(app, [*args, "--out", str(out), "-q", "--no-report"])
     assert result.exit_code == 0, result.output
     report = write_report(out, animations=False, primary=Primary("ga", "random"))
     words = " ".join(next(s for s in report.sections if s.title == "Which differences are significant").paragraphs)

@@ -10,12 +10,13 @@ from rich.console import Console
 
 import gdabench
 from gdabench import Experiment, PluginChoice
+from gdabench.experiment.plan import Plan
+from gdabench.hookspecs import GenerationReport
 from gdabench.running import progress as progress_module
 from gdabench.running.events import RunListener
 from gdabench.running.hosts import BodiesDone
-from gdabench.running.plan import Plan
 from gdabench.running.progress import ProgressDisplay
-from gdabench.running.trial import GenerationReport, GenerationResult
+from gdabench.running.trial import GenerationResult
 
 
 class Clock:

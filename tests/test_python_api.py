@@ -26,12 +26,19 @@ def test_the_python_page_runs_as_written(tmp_path, monkeypatch):
     assert len(blocks) >= 4
     namespace: dict = {}
     for block in blocks:
-        exec(compile(block, str(PAGE), "exec"), namespace)  # noqa: S102 - the page is ours
+        exec(compile(block, str(PAGE), "exec"), namespace)
     assert (tmp_path / "results" / "notebook" / "report" / "report.html").exists()
 
 
 def test_compare_returns_dataframes_and_takes_choices(tmp_path):
-    run = gdabench.compare(designers=[gdabench.PluginChoice("random")], env="simple", seeds="0..1", budget=50, out=tmp_path / "r", progress=False)
+    run = gdabench.compare(
+        designers=[gdabench.PluginChoice("random")],
+        env="simple",
+        seeds="0..1",
+        budget=50,
+        out=tmp_path / "r",
+        progress=False,
+    )
     assert isinstance(run.evaluations(), pd.DataFrame) and isinstance(run.summary(), pd.DataFrame)
     assert len(run.evaluations()) == 100 and run.summary().loc[0, "seeds"] == 2
     assert gdabench.open_run(tmp_path / "r").path == run.path and "best_median" in run._repr_html_()
@@ -64,7 +71,9 @@ def run_script(code: str, cwd: Path, stdin: bool = False) -> subprocess.Complete
     script.write_text(code)
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
     if stdin:
-        return subprocess.run([sys.executable, "-"], input=code, capture_output=True, text=True, cwd=cwd, env=env, timeout=600)
+        return subprocess.run(
+            [sys.executable, "-"], input=code, capture_output=True, text=True, cwd=cwd, env=env, timeout=600
+        )
     return subprocess.run([sys.executable, str(script)], capture_output=True, text=True, cwd=cwd, env=env, timeout=600)
 
 
@@ -97,7 +106,7 @@ def test_a_script_without_a_main_guard_runs_its_workers_once(tmp_path):
 def test_a_run_that_failed_before_writing_anything_can_be_run_again(tmp_path, reg):
     flag = tmp_path / "fail"
     flag.touch()
-    common = dict(env="simple", budget=50, out=tmp_path / "run", progress=False, reg=reg)
+    common = {"env": "simple", "budget": 50, "out": tmp_path / "run", "progress": False, "reg": reg}
     with pytest.raises(TrialError, match="designer model diverged"):
         gdabench.compare(designers=f"fragile[fail_at=0,flag={flag}]", **common)
     assert gdabench.open_run(tmp_path / "run").status == "failed"
@@ -128,8 +137,8 @@ class Plugin:
 
 if __name__ == "__main__":
     reg = Registry(extra_plugins={"mine": Plugin()})
-    run = gdabench.compare(designers="mine,random", env="simple", seeds="0..1", budget=50, out="results/run", progress=False,
-                           execution=Execution(jobs=2), reg=reg)
+    run = gdabench.compare(designers="mine,random", env="simple", seeds="0..1", budget=50, out="results/run",
+                           progress=False, execution=Execution(jobs=2), reg=reg)
     print(run.status, len(run.evaluations()))
 """
 
@@ -155,8 +164,16 @@ class Bodies(RunListener):
 @pytest.mark.parametrize("jobs", [1, 2])
 def test_progress_is_told_body_by_body_while_a_generation_runs(tmp_path, jobs):
     listener = Bodies()
-    gdabench.compare(designers="ga,random", env="simple", seeds=[0], budget=50, population=10, out=tmp_path / "r", listener=listener,
-                     execution=Execution(jobs=jobs))
+    gdabench.compare(
+        designers="ga,random",
+        env="simple",
+        seeds=[0],
+        budget=50,
+        population=10,
+        out=tmp_path / "r",
+        listener=listener,
+        execution=Execution(jobs=jobs),
+    )
     assert set(listener.reports) == set(listener.new)
     for key, reports in listener.reports.items():
         total, replayed = listener.new[key], reports[0][0]  # bodies another trial of the run had scored come at once
@@ -177,8 +194,17 @@ class Notes(RunListener):
 @pytest.mark.parametrize("jobs", [1, 2])
 def test_a_generation_learning_in_lockstep_tells_its_timesteps_and_speed(tmp_path, jobs):
     listener = Notes()
-    gdabench.compare(designers="random", env="walker", controller="ppo[timesteps=512]", seeds=[0, 1][:jobs], budget=3,
-                     population=3, out=tmp_path / "r", listener=listener, execution=Execution(jobs=jobs))
+    gdabench.compare(
+        designers="random",
+        env="walker",
+        controller="ppo[timesteps=512]",
+        seeds=[0, 1][:jobs],
+        budget=3,
+        population=3,
+        out=tmp_path / "r",
+        listener=listener,
+        execution=Execution(jobs=jobs),
+    )
     # the batch's last rollout is always told (others every 2 s at most), while the generation's 3 bodies run
     # figures first, so that a narrow terminal cuts the words rather than them
     finals = [n for n in listener.notes if n[2].startswith("512/512 timesteps, ")]

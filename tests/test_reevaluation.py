@@ -11,14 +11,15 @@ from typer.testing import CliRunner
 from gdabench import seeding
 from gdabench.body import Body
 from gdabench.cli import app
-from gdabench.config import Experiment, PluginChoice, Reevaluation
 from gdabench.errors import ConfigError
-from gdabench.experiment_build import build_run
+from gdabench.experiment.build import build_run
+from gdabench.experiment.config import Experiment, PluginChoice, Reevaluation
 from gdabench.report.build import write_report
 from gdabench.report.pairwise import pairwise
-from gdabench.report.reevaluated import trial_scores
-from gdabench.running.reevaluation import load, reevaluate_directory, top_bodies
+from gdabench.results import load_reevaluations as load
+from gdabench.running.reevaluation import reevaluate_directory, top_bodies
 from gdabench.running.runner import compare
+from gdabench.stats.reevaluated import trial_scores
 
 
 def _noisy(body: str, seed: int) -> float:
@@ -80,7 +81,9 @@ def test_top_bodies_are_distinct_and_best_first():
 
 
 def test_on_by_default_with_a_controller_and_off_without(tmp_path):
-    assert build_run({"designers": "ga,gda", "env": "walker", "controller": "ppo"}).experiment.reevaluate == Reevaluation()
+    assert (
+        build_run({"designers": "ga,gda", "env": "walker", "controller": "ppo"}).experiment.reevaluate == Reevaluation()
+    )
     assert build_run({"designers": "ga,gda", "env": "simple"}).experiment.reevaluate is None
     off = build_run({"designers": "ga", "env": "walker", "controller": "ppo", "reevaluate": "off"}).experiment
     assert off.reevaluate is None

@@ -20,11 +20,26 @@ import pytest
 from typer.testing import CliRunner
 
 from gdabench.cli import app
-from gdabench.running.faults import POINTS
+from gdabench.faults import POINTS
 from gdabench.results import RunDirectory
-from processes import cli, default_sigint, error_lines, table
 
-ARGS = ["compare", "-d", "ga,random", "--env", "faulty", "--budget", "60", "--population", "10", "--seeds", "0,1", "-q", "--no-report"]
+from support.processes import cli, default_sigint, error_lines, table
+
+ARGS = [
+    "compare",
+    "-d",
+    "ga,random",
+    "--env",
+    "faulty",
+    "--budget",
+    "60",
+    "--population",
+    "10",
+    "--seeds",
+    "0,1",
+    "-q",
+    "--no-report",
+]
 SLOW = {"GDABENCH_FAULTY_DELAY": "0.03"}
 
 
@@ -70,12 +85,19 @@ def test_a_second_writer_is_refused_while_a_run_is_going(tmp_path, faulty_site, 
             assert second.returncode == 2, second.stderr
             lines = error_lines(second)
             assert len(lines) == 1 and lines[0].startswith("error: "), second.stderr
-            assert f"run {out} is being written by process {proc.pid} on " in lines[0] or "already exists and is not empty" in lines[0]
+            assert (
+                f"run {out} is being written by process {proc.pid} on " in lines[0]
+                or "already exists and is not empty" in lines[0]
+            )
         assert proc.wait(timeout=300) == 0, proc.communicate()
     finally:
         proc.kill()
     after = RunDirectory.open(out).meta
-    assert (after["run_id"], after["command"], after.get("resumed")) == (meta["run_id"], meta["command"], None)  # untouched by the others
+    assert (after["run_id"], after["command"], after.get("resumed")) == (
+        meta["run_id"],
+        meta["command"],
+        None,
+    )  # untouched by the others
     assert_whole(out, reference)
 
 
@@ -85,7 +107,10 @@ def test_concurrent_resumes_leave_one_writer(tmp_path, faulty_site, reference):
     wait_for(lambda: started(out), proc, "a first generation")
     proc.send_signal(signal.SIGKILL)
     proc.wait()
-    resumes = [cli("compare", "--resume", str(out), "-q", "--no-report", site=faulty_site, env=SLOW, background=True) for _ in range(3)]
+    resumes = [
+        cli("compare", "--resume", str(out), "-q", "--no-report", site=faulty_site, env=SLOW, background=True)
+        for _ in range(3)
+    ]
     results = [(r.wait(timeout=300), r.communicate()[1]) for r in resumes]
     codes = sorted(code for code, _ in results)
     assert codes == [0, 2, 2], results
@@ -107,13 +132,17 @@ def test_identical_runs_started_at_once_on_one_directory(tmp_path, faulty_site, 
 
 
 def test_labels_that_share_a_file_name_are_refused(tmp_path, faulty_site):
-    result = cli("compare", "-d", "ga[survivors=5],ga[survivors=5 ]", "--out", str(tmp_path / "run"), "-q", site=faulty_site)
+    result = cli(
+        "compare", "-d", "ga[survivors=5],ga[survivors=5 ]", "--out", str(tmp_path / "run"), "-q", site=faulty_site
+    )
     assert result.returncode == 2 and "map to the same file name" in result.stderr and not (tmp_path / "run").exists()
 
 
 # -- kills at every phase -------------------------------------------------------------------------
 @pytest.mark.parametrize("point", POINTS)
-def test_a_kill_at_every_phase_of_finishing_a_generation_or_trial_resumes_whole(point, tmp_path, faulty_site, reference):
+def test_a_kill_at_every_phase_of_finishing_a_generation_or_trial_resumes_whole(
+    point, tmp_path, faulty_site, reference
+):
     out = tmp_path / "run"
     dead = cli(*ARGS, "--jobs", "1", "--out", str(out), site=faulty_site, env={"GDABENCH_FAULT": f"{point}:2"})
     assert dead.returncode == -signal.SIGKILL, dead.stderr
@@ -134,7 +163,9 @@ def test_readers_see_a_consistent_snapshot_while_trials_finish(tmp_path, faulty_
             frame = RunDirectory.open(out).load_evaluations()
             assert not frame.duplicated(["designer", "seed", "generation", "index"]).any()
             counts = frame.groupby(["designer", "seed"]).size()
-            assert (counts.reindex(seen.index, fill_value=0).to_numpy() >= seen.to_numpy()).all()  # no trial's rows ever vanish
+            assert (
+                counts.reindex(seen.index, fill_value=0).to_numpy() >= seen.to_numpy()
+            ).all()  # no trial's rows ever vanish
             seen, reads = counts, reads + 1
     finally:
         proc.kill()
@@ -151,7 +182,9 @@ def test_sigterm_is_an_interruption_and_resumes(tmp_path, faulty_site, reference
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 143, err
     lines = [line for line in err.splitlines() if line.strip()]
-    assert len(lines) == 1 and lines[0].startswith("error: terminated") and f"gdabench compare --resume {out}" in lines[0]
+    assert (
+        len(lines) == 1 and lines[0].startswith("error: terminated") and f"gdabench compare --resume {out}" in lines[0]
+    )
     meta = RunDirectory.open(out).meta
     assert meta["status"] == "interrupted" and "SIGTERM" in meta["error"]
     assert cli("compare", "--resume", str(out), "-q", "--no-report", site=faulty_site).returncode == 0
@@ -161,7 +194,9 @@ def test_sigterm_is_an_interruption_and_resumes(tmp_path, faulty_site, reference
 @pytest.mark.parametrize("lost", ["gen-000000.parquet", "gen-000002.parquet", "."])
 def test_a_generation_file_missing_under_a_checkpoint_is_refused_naming_it(lost, tmp_path, faulty_site, reference):
     out = tmp_path / "run"
-    dead = cli(*ARGS, "--jobs", "1", "--out", str(out), site=faulty_site, env={"GDABENCH_FAULT": "checkpoint-written:4"})
+    dead = cli(
+        *ARGS, "--jobs", "1", "--out", str(out), site=faulty_site, env={"GDABENCH_FAULT": "checkpoint-written:4"}
+    )
     assert dead.returncode == -signal.SIGKILL, dead.stderr
     folder = out / "pending" / "ga-seed0"
     written = sorted(p.name for p in folder.glob("gen-*"))
@@ -176,7 +211,9 @@ def test_a_generation_file_missing_under_a_checkpoint_is_refused_naming_it(lost,
         assert lines[0].startswith("error: ") and f"{first_missing} is missing" in lines[0], resumed.stderr
         assert sorted(p.name for p in folder.glob("gen-*")) == left
     assert RunDirectory.open(out).meta["status"] == "failed"
-    subprocess.run(["rm", "-rf", str(folder), str(out / "checkpoints" / "ga-seed0.pkl")], check=True)  # what the line says to do
+    subprocess.run(
+        ["rm", "-rf", str(folder), str(out / "checkpoints" / "ga-seed0.pkl")], check=True
+    )  # what the line says to do
     assert cli("compare", "--resume", str(out), "-q", "--no-report", site=faulty_site).returncode == 0
     assert_whole(out, reference)
 
@@ -185,14 +222,32 @@ def test_a_generation_file_missing_under_a_checkpoint_is_refused_naming_it(lost,
 def test_a_kill_mid_generation_keeps_the_bodies_it_evaluated(tmp_path, faulty_site, reference, batch):
     """Killed once 3 of the 5 new bodies of ga seed 0's generation 1 were stored (body by body, or a batch)."""
     out, log = tmp_path / "run", tmp_path / "evaluated.txt"
-    dead = cli(*ARGS, "--jobs", "1", "--batch", batch, "--out", str(out), site=faulty_site,
-               env={"GDABENCH_FAULT": "outcome-stored:13", "GDABENCH_FAULTY_LOG": str(log)})
+    dead = cli(
+        *ARGS,
+        "--jobs",
+        "1",
+        "--batch",
+        batch,
+        "--out",
+        str(out),
+        site=faulty_site,
+        env={"GDABENCH_FAULT": "outcome-stored:13", "GDABENCH_FAULTY_LOG": str(log)},
+    )
     assert dead.returncode == -signal.SIGKILL, dead.stderr
     assert len(RunDirectory.open(out).load_evaluations()) == 10  # generation 1 was not written
     # one trial at a time, as the killed run: ga and random trials of one seed run side by side would both
     # train the generation 0 they share before either has recorded it (a race this test is not about)
-    resumed = cli("compare", "--resume", str(out), "--jobs", "1", "-q", "--no-report", site=faulty_site,
-                  env={"GDABENCH_FAULTY_LOG": str(log)})
+    resumed = cli(
+        "compare",
+        "--resume",
+        str(out),
+        "--jobs",
+        "1",
+        "-q",
+        "--no-report",
+        site=faulty_site,
+        env={"GDABENCH_FAULTY_LOG": str(log)},
+    )
     assert resumed.returncode == 0, resumed.stderr
     assert_whole(out, reference)
     evaluated = log.read_text().splitlines()
@@ -208,8 +263,16 @@ def test_workers_stop_writing_the_moment_the_driver_is_killed(tmp_path, faulty_s
     """The run directory has one writer: with it killed, its trial workers (and their evaluation workers)
     once went on for seconds and wrote outcome files into the directory of a run nobody held."""
     out, log = tmp_path / "run", tmp_path / "evaluated.txt"
-    proc = cli(*ARGS, "--jobs", "2", "--out", str(out), site=faulty_site, background=True,
-               env={"GDABENCH_FAULTY_DELAY": "0.05", "GDABENCH_FAULTY_LOG": str(log)})
+    proc = cli(
+        *ARGS,
+        "--jobs",
+        "2",
+        "--out",
+        str(out),
+        site=faulty_site,
+        background=True,
+        env={"GDABENCH_FAULTY_DELAY": "0.05", "GDABENCH_FAULTY_LOG": str(log)},
+    )
     wait_for(lambda: len(list(out.glob("outcomes/*/*"))) >= 4, proc, "outcomes written by the workers")
     proc.kill()
     proc.wait(timeout=30)
@@ -227,7 +290,7 @@ def test_wall_time_adds_up_the_first_run_and_every_resume(tmp_path, faulty_site,
         args = ["compare", "--resume", str(out), "-q", "--no-report"] if out.exists() else [*ARGS, "--out", str(out)]
         proc = cli(*args, site=faulty_site, env=SLOW, background=True)
         before = len(list(out.glob("pending/*/gen-*.parquet")))
-        wait_for(lambda: len(list(out.glob("pending/*/gen-*.parquet"))) > before, proc, "a new generation")
+        wait_for(lambda n=before: len(list(out.glob("pending/*/gen-*.parquet"))) > n, proc, "a new generation")
         proc.send_signal(stop)
         proc.communicate(timeout=60)
         time.sleep(1.5)  # a pause between two parts is no part of the run's time
@@ -252,7 +315,11 @@ def test_trials_that_propose_the_same_body_score_it_once(tmp_path, faulty_site, 
     first = rows[(rows["generation"] == 0) & (rows["seed"] == 0)]
     assert set(first[first["designer"] == "ga"]["body"]) == set(first[first["designer"] == "random"]["body"])
     evaluated = log.read_text().splitlines()
-    assert len(evaluated) == len(set(evaluated)) == rows[rows["status"] == "ok"]["body_hash"].groupby(rows["seed"]).nunique().sum()
+    assert (
+        len(evaluated)
+        == len(set(evaluated))
+        == rows[rows["status"] == "ok"]["body_hash"].groupby(rows["seed"]).nunique().sum()
+    )
 
 
 def test_ctrl_c_pressed_again_and_again_gives_one_line(tmp_path, faulty_site):
@@ -264,7 +331,9 @@ def test_ctrl_c_pressed_again_and_again_gives_one_line(tmp_path, faulty_site):
         time.sleep(0.003)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
-    assert "Traceback" not in err and [line for line in err.splitlines() if line.strip()][0].startswith("error: interrupted"), err
+    assert "Traceback" not in err and [line for line in err.splitlines() if line.strip()][0].startswith(
+        "error: interrupted"
+    ), err
     assert RunDirectory.open(out).meta["status"] == "interrupted"
 
 
@@ -279,17 +348,46 @@ def spawned_children(pid: int) -> list[str]:
     return spawned
 
 
-@pytest.mark.skipif(not Path(f"/proc/{os.getpid()}/task/{os.getpid()}/children").exists(), reason="needs /proc/PID/task/TID/children")
+@pytest.mark.skipif(
+    not Path(f"/proc/{os.getpid()}/task/{os.getpid()}/children").exists(), reason="needs /proc/PID/task/TID/children"
+)
 def test_ctrl_c_in_a_terminal_while_workers_start_gives_one_line(tmp_path, faulty_site):
     """A terminal's Ctrl-C goes to the whole process group, workers still importing included."""
-    env = dict(os.environ, COLUMNS="200", PYTHONPATH=os.pathsep.join(filter(None, [str(faulty_site), os.environ.get("PYTHONPATH")])), **SLOW)
-    for attempt, pause in enumerate((0.0, 0.25, 0.5, 0.75, 1.0, 1.5)):  # moments of the workers' set-up (imports, unpickling)
-        command = [sys.executable, "-m", "gdabench", *ARGS, "--jobs", "2", "--workers", "2", "--out", str(tmp_path / f"run{attempt}")]
-        proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, start_new_session=True,
-                                preexec_fn=default_sigint)
-        wait_for(lambda: spawned_children(proc.pid), proc, "a worker process")
+    env = dict(
+        os.environ,
+        COLUMNS="200",
+        PYTHONPATH=os.pathsep.join(filter(None, [str(faulty_site), os.environ.get("PYTHONPATH")])),
+        **SLOW,
+    )
+    for attempt, pause in enumerate(
+        (0.0, 0.25, 0.5, 0.75, 1.0, 1.5)
+    ):  # moments of the workers' set-up (imports, unpickling)
+        command = [
+            sys.executable,
+            "-m",
+            "gdabench",
+            *ARGS,
+            "--jobs",
+            "2",
+            "--workers",
+            "2",
+            "--out",
+            str(tmp_path / f"run{attempt}"),
+        ]
+        proc = subprocess.Popen(
+            command,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=env,
+            start_new_session=True,
+            preexec_fn=default_sigint,
+        )
+        wait_for(lambda proc=proc: spawned_children(proc.pid), proc, "a worker process")
         time.sleep(pause)
-        while proc.poll() is None:  # again until it ends: one press may land while a worker is being started (ignored then)
+        while (
+            proc.poll() is None
+        ):  # again until it ends: one press may land while a worker is being started (ignored then)
             os.killpg(proc.pid, signal.SIGINT)
             try:
                 proc.wait(0.5)
@@ -297,7 +395,12 @@ def test_ctrl_c_in_a_terminal_while_workers_start_gives_one_line(tmp_path, fault
                 pass
         err = proc.stderr.read()
         lines = [line for line in err.splitlines() if line.strip()]
-        assert proc.returncode == 130 and "Traceback" not in err and len(lines) == 1 and lines[0].startswith("error: interrupted"), err
+        assert (
+            proc.returncode == 130
+            and "Traceback" not in err
+            and len(lines) == 1
+            and lines[0].startswith("error: interrupted")
+        ), err
 
 
 # -- a full disk --------------------------------------------------------------------------------------
@@ -314,8 +417,24 @@ def small_disk(tmp_path):
 
 def test_a_full_disk_fails_the_run_in_one_line_and_keeps_what_was_written(small_disk, faulty_site):
     out = small_disk / "run"
-    result = cli("compare", "-d", "ga,random", "--env", "faulty", "--budget", "5000", "--seeds", "0..3", "-q", "--no-report",
-                 "--jobs", "1", "--out", str(out), site=faulty_site)
+    result = cli(
+        "compare",
+        "-d",
+        "ga,random",
+        "--env",
+        "faulty",
+        "--budget",
+        "5000",
+        "--seeds",
+        "0..3",
+        "-q",
+        "--no-report",
+        "--jobs",
+        "1",
+        "--out",
+        str(out),
+        site=faulty_site,
+    )
     assert result.returncode == 1, result.stderr
     lines = error_lines(result)
     assert len(lines) == 1 and lines[0].startswith(f"error: no space left on the device of {out}"), result.stderr
@@ -331,24 +450,41 @@ def fill(disk: Path) -> None:
 
 def test_a_full_disk_is_one_line_and_exit_1_for_every_command(small_disk, faulty_site):
     run = small_disk / "run"
-    assert cli("compare", "-d", "random", "--budget", "50", "-q", "--no-report", "--out", str(run), site=faulty_site).returncode == 0
+    assert (
+        cli(
+            "compare", "-d", "random", "--budget", "50", "-q", "--no-report", "--out", str(run), site=faulty_site
+        ).returncode
+        == 0
+    )
     fill(small_disk)
-    for args, where in [(["report", str(run)], run / "report"), (["export", str(run)], run / "export" / "ioh"),
-                        (["export", str(run), "-f", "csv"], run / "export" / "evaluations.csv"),
-                        (["compare", "-d", "random", "--budget", "50", "-q", "--out", str(small_disk / "new")], small_disk / "new")]:
+    for args, where in [
+        (["report", str(run)], run / "report"),
+        (["export", str(run)], run / "export" / "ioh"),
+        (["export", str(run), "-f", "csv"], run / "export" / "evaluations.csv"),
+        (["compare", "-d", "random", "--budget", "50", "-q", "--out", str(small_disk / "new")], small_disk / "new"),
+    ]:
         result = cli(*args, site=faulty_site)
         lines = error_lines(result)
         assert result.returncode == 1 and len(lines) == 1, (args, result.stderr)
         assert lines[0].startswith(f"error: no space left on the device of {where}"), result.stderr
         assert not where.exists()
-    assert not (small_disk / "new").exists() and not list(small_disk.rglob("*.tmp")) and not list(small_disk.rglob("*gdabench-*"))
+    assert (
+        not (small_disk / "new").exists()
+        and not list(small_disk.rglob("*.tmp"))
+        and not list(small_disk.rglob("*gdabench-*"))
+    )
 
 
 # -- reports and exports ------------------------------------------------------------------------------
 @pytest.mark.parametrize("command, made", [(["report"], "report"), (["export"], "export/ioh")])
 def test_a_killed_report_or_export_leaves_nothing_half_written(command, made, tmp_path, faulty_site):
     out = tmp_path / "run"
-    assert cli("compare", "-d", "random", "--budget", "50", "-q", "--no-report", "--out", str(out), site=faulty_site).returncode == 0
+    assert (
+        cli(
+            "compare", "-d", "random", "--budget", "50", "-q", "--no-report", "--out", str(out), site=faulty_site
+        ).returncode
+        == 0
+    )
     dead = cli(*command, str(out), site=faulty_site, env={"GDABENCH_FAULT": "output-staged"})
     assert dead.returncode == -signal.SIGKILL, dead.stderr
     assert not (out / made).exists()  # nothing, rather than a part
@@ -370,7 +506,9 @@ def locks_left(where: Path, run: Path) -> list[str]:
 def test_report_and_export_leave_no_lock_files(tmp_path):
     """They once left an empty ``.<name>.lock`` beside each output, even after success."""
     out = tmp_path / "run"
-    assert CliRunner().invoke(app, ["compare", "-d", "random", "--budget", "50", "-q", "--out", str(out)]).exit_code == 0
+    assert (
+        CliRunner().invoke(app, ["compare", "-d", "random", "--budget", "50", "-q", "--out", str(out)]).exit_code == 0
+    )
     for command in (["export"], ["export", "-f", "csv"], ["report", "--out", str(tmp_path / "elsewhere")]):
         assert CliRunner().invoke(app, [*command, str(out)]).exit_code == 0
     assert (out / "report" / "report.html").exists() and (out / "export" / "evaluations.csv").exists()
@@ -379,7 +517,10 @@ def test_report_and_export_leave_no_lock_files(tmp_path):
 
 # -- input errors: one line, exit 2, nothing made ----------------------------------------------------
 BAD_INPUT = [
-    (["-d", "ga[survivors=abc]"], "designer 'ga[survivors=abc]': parameter 'survivors' must be an integer or null, got 'abc'"),
+    (
+        ["-d", "ga[survivors=abc]"],
+        "designer 'ga[survivors=abc]': parameter 'survivors' must be an integer or null, got 'abc'",
+    ),
     (["-d", "ga[survivors=[5]]"], "parameter 'survivors' must be an integer or null, got [5]"),
     (["-d", "ga[survivors=2.5]"], "parameter 'survivors' must be an integer or null, got 2.5"),
     (["-d", "ga[survivors=true]"], "parameter 'survivors' must be an integer or null, got True"),
@@ -391,11 +532,17 @@ BAD_INPUT = [
     (["-d", "cppn[config=5]"], "cppn: cannot read config file '5'"),
     (["-d", "ga", "--seeds", "99999999999999999999"], "seed must be an integer from 0 to 4294967295"),
     (["-d", "ga", "--seeds", "0..100000000000"], "at most 10000 are allowed"),
-    (["-d", "ga", "--population", "1000000000", "--budget", "1000000000"], "population must be an integer from 1 to 10,000"),
+    (
+        ["-d", "ga", "--population", "1000000000", "--budget", "1000000000"],
+        "population must be an integer from 1 to 10,000",
+    ),
     (["-d", "cppn", "--population", "1000000000"], "population must be an integer from 1 to 10,000"),
     (["-d", "ga", "--budget", "100000000000"], "budget must be an integer from 1 to 10,000,000"),
     (["-d", "ga", "--shape", "100x100"], "shape must be two sides from 1 to 64 voxels"),
-    (["-d", "ga", "--env", "walker", "--controller", "open-loop[trials=-1]"], "open-loop: trials must be a positive integer, got -1"),
+    (
+        ["-d", "ga", "--env", "walker", "--controller", "open-loop[trials=-1]"],
+        "open-loop: trials must be a positive integer, got -1",
+    ),
     (["-d", "ga", "--jobs", "0"], "jobs must be a positive integer"),
 ]
 
@@ -420,7 +567,11 @@ def test_evaluate_and_compare_agree_on_bad_input():
 def test_output_paths_that_cannot_be_a_run_directory(tmp_path):
     a_file = tmp_path / "file"
     a_file.write_text("x")
-    cases = {a_file: "exists and is not a directory", a_file / "run": "which is not a directory", Path("/proc/gdabench-run"): "cannot create"}
+    cases = {
+        a_file: "exists and is not a directory",
+        a_file / "run": "which is not a directory",
+        Path("/proc/gdabench-run"): "cannot create",
+    }
     for out, fragment in cases.items():
         result = CliRunner().invoke(app, ["compare", "-d", "random", "--out", str(out), "-q"], env={"COLUMNS": "300"})
         lines = [line for line in result.stderr.splitlines() if line.strip()]
@@ -439,7 +590,12 @@ def test_a_label_too_long_for_a_file_name_runs_reports_and_exports(tmp_path):
 def damaged(tmp_path: Path, damage) -> Path:
     """A complete run, then ``damage(run_dir)``."""
     out = tmp_path / "run"
-    assert CliRunner().invoke(app, ["compare", "-d", "random", "--budget", "50", "-q", "--no-report", "--out", str(out)]).exit_code == 0
+    assert (
+        CliRunner()
+        .invoke(app, ["compare", "-d", "random", "--budget", "50", "-q", "--no-report", "--out", str(out)])
+        .exit_code
+        == 0
+    )
     damage(out)
     return out
 
@@ -449,21 +605,43 @@ def budget_abc(out: Path) -> None:
     RunDirectory(out).write_meta({**meta, "config": {**meta["config"], "budget": "abc"}})
 
 
-@pytest.mark.parametrize("damage, command, code, fragment", [
-    (budget_abc, ["compare", "--resume"], 2, "run.json: config: budget must be an integer from 1 to 10,000,000, got 'abc'"),
-    (budget_abc, ["report"], 0, "run.json has no readable configuration; budget and seeds are taken from the table"),
-    (lambda out: (out / "evaluations.parquet").unlink(), ["compare", "--no-report", "--resume"], 2, "is complete but its table"),
-    (lambda out: (out / "run.json").write_bytes(b'{"a": "\xff"}'), ["compare", "--config"], 2, "is not UTF-8 text"),
-])
+@pytest.mark.parametrize(
+    "damage, command, code, fragment",
+    [
+        (
+            budget_abc,
+            ["compare", "--resume"],
+            2,
+            "run.json: config: budget must be an integer from 1 to 10,000,000, got 'abc'",
+        ),
+        (
+            budget_abc,
+            ["report"],
+            0,
+            "run.json has no readable configuration; budget and seeds are taken from the table",
+        ),
+        (
+            lambda out: (out / "evaluations.parquet").unlink(),
+            ["compare", "--no-report", "--resume"],
+            2,
+            "is complete but its table",
+        ),
+        (lambda out: (out / "run.json").write_bytes(b'{"a": "\xff"}'), ["compare", "--config"], 2, "is not UTF-8 text"),
+    ],
+)
 def test_a_damaged_run_is_one_line_not_an_internal_error(tmp_path, damage, command, code, fragment):
     out = damaged(tmp_path, damage)
-    result = CliRunner().invoke(app, [*command, str(out / "run.json" if "--config" in command else out)], env={"COLUMNS": "300"})
+    result = CliRunner().invoke(
+        app, [*command, str(out / "run.json" if "--config" in command else out)], env={"COLUMNS": "300"}
+    )
     lines = [line for line in result.stderr.splitlines() if line.strip()]
     assert result.exit_code == code and fragment in lines[0] and len(lines) == 1, result.stderr
     assert "internal error" not in result.stderr
 
 
-@pytest.mark.parametrize("content, fragment", [("[1, 2]", "is not a JSON object"), ('{"format": "gdabench-run/1"}', "has no 'config' table")])
+@pytest.mark.parametrize(
+    "content, fragment", [("[1, 2]", "is not a JSON object"), ('{"format": "gdabench-run/1"}', "has no 'config' table")]
+)
 def test_a_damaged_run_json_is_one_line(tmp_path, content, fragment):
     (tmp_path / "run.json").write_text(content)
     for command in (["compare", "--resume", str(tmp_path)], ["report", str(tmp_path)]):
@@ -474,12 +652,24 @@ def test_a_damaged_run_json_is_one_line(tmp_path, content, fragment):
 def test_an_error_is_the_first_line_on_stderr(tmp_path):
     """Not an empty line before it (a progress display that never started printed one)."""
     for args in (["compare", "-d", "nope", "--out", str(tmp_path / "run")], ["compare", "--resume", str(tmp_path)]):
-        result = subprocess.run([sys.executable, "-m", "gdabench", *args], capture_output=True, text=True, env=dict(os.environ, COLUMNS="300"))
-        assert result.returncode == 2 and result.stderr.startswith("error: ") and result.stderr.count("\n") == 1, result.stderr
+        result = subprocess.run(
+            [sys.executable, "-m", "gdabench", *args],
+            capture_output=True,
+            text=True,
+            env=dict(os.environ, COLUMNS="300"),
+        )
+        assert result.returncode == 2 and result.stderr.startswith("error: ") and result.stderr.count("\n") == 1, (
+            result.stderr
+        )
 
 
 def test_usage_errors_are_one_line_too():
     for args in (["compare", "--budget", "abc"], ["compare", "--nope"], ["frobnicate"]):
-        result = subprocess.run([sys.executable, "-m", "gdabench", *args], capture_output=True, text=True, env=dict(os.environ, COLUMNS="300"))
+        result = subprocess.run(
+            [sys.executable, "-m", "gdabench", *args],
+            capture_output=True,
+            text=True,
+            env=dict(os.environ, COLUMNS="300"),
+        )
         lines = [line for line in result.stderr.splitlines() if line.strip()]
         assert result.returncode == 2 and len(lines) == 1 and lines[0].startswith("error: "), result.stderr

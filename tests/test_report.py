@@ -18,25 +18,25 @@ from matplotlib.container import BarContainer, ErrorbarContainer
 from PIL import Image
 from typer.testing import CliRunner
 
-from gdabench import Body, EnvironmentSpec, Environment, Experiment, PluginChoice, RunDirectoryError, hookimpl
+from gdabench import Body, Environment, EnvironmentSpec, Experiment, PluginChoice, RunDirectoryError, hookimpl
 from gdabench.cli import app
 from gdabench.errors import ConfigError
+from gdabench.execution import Execution
 from gdabench.plugins import Registry
 from gdabench.report import plots
 from gdabench.report.bodies import COLOURS, body_image
 from gdabench.report.build import write_report
-from gdabench.report.diversity import categorize, body_matrix, diversity
-from gdabench.report.stats import (
+from gdabench.report.diversity import body_matrix, categorize, diversity
+from gdabench.running.events import RunListener
+from gdabench.running.runner import compare
+from gdabench.seeding import evaluation_seed
+from gdabench.stats.core import (
     best_so_far_curve,
     censored_median,
     generation_rewards,
     median_interval,
     order_statistic_ranks,
 )
-from gdabench.execution import Execution
-from gdabench.running.events import RunListener
-from gdabench.running.runner import compare
-from gdabench.seeding import evaluation_seed
 
 DESIGNERS = ("ga", "random")
 SEEDS = (0, 1)
@@ -195,11 +195,14 @@ def test_diversity_matches_a_brute_force_count(table, run_dir, report):
         texts = [t.replace("/", "") for t in g["body"]]
         pairs = [sum(a != b for a, b in zip(x, y)) for x, y in combinations(texts, 2)]
         assert row["mean_pairwise_hamming"] == pytest.approx(np.mean(pairs))
-        earlier = table[(table["designer"] == designer) & (table["seed"] == seed) & (table["generation"] < generation) & (table["status"] == "ok")]
+        same_trial = (table["designer"] == designer) & (table["seed"] == seed)
+        earlier = table[same_trial & (table["generation"] < generation) & (table["status"] == "ok")]
         if generation == 0:
             assert math.isnan(row["nearest_survivor_mean"])
             continue
-        survivors = [t.replace("/", "") for t in earlier.sort_values("reward", ascending=False, kind="stable")["body"].head(5)]
+        survivors = [
+            t.replace("/", "") for t in earlier.sort_values("reward", ascending=False, kind="stable")["body"].head(5)
+        ]
         nearest = [min(sum(a != b for a, b in zip(x, s)) for s in survivors) for x in texts]
         assert row["nearest_survivor_mean"] == pytest.approx(np.mean(nearest))
         shares = row[["share_copy", "share_near_copy", "share_new_materials", "share_novel_shape"]]
@@ -353,7 +356,9 @@ def test_report_of_a_run_while_it_runs_and_after_it_failed(tmp_path):
         def generation(self, spec, result):
             where = (spec.designer.label, spec.seed, result.generation)
             if where == ("random", 0, 1):
-                peeked["report"] = write_report(tmp_path / "run", tmp_path / "mid")  # ga seed 0 done, random seed 0 half-way
+                peeked["report"] = write_report(
+                    tmp_path / "run", tmp_path / "mid"
+                )  # ga seed 0 done, random seed 0 half-way
             if where == ("ga", 1, 2):
                 raise KeyboardInterrupt
 
@@ -438,7 +443,11 @@ class StagePlugin:
 @pytest.fixture(scope="module")
 def stage_run(tmp_path_factory):
     reg = Registry(entry_points=False, extra_plugins={"stage": StagePlugin})
-    run = compare(_experiment(designers=("random",), env="stage", seeds=(3,), budget=25), tmp_path_factory.mktemp("stage") / "run", reg=reg)
+    run = compare(
+        _experiment(designers=("random",), env="stage", seeds=(3,), budget=25),
+        tmp_path_factory.mktemp("stage") / "run",
+        reg=reg,
+    )
     return run.path, reg
 
 
@@ -492,13 +501,16 @@ def test_run_where_every_evaluation_failed(tmp_path):
 def test_a_run_of_one_generation_draws_whole_generations_and_says_what_is_missing(tmp_path):
     from gdabench.report import plots
     from gdabench.report.diversity import diversity
-    from gdabench.report.stats import generation_rewards
+    from gdabench.stats.core import generation_rewards
 
     exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), envs=PluginChoice("simple"), budget=25)
     frame = compare(exp, tmp_path / "run").load_evaluations()
     div = diversity(frame, 5, 2)
-    figures = [plots.generation_rewards_figure(generation_rewards(frame), ["ga", "random"]),
-               plots.diversity_figure(div, ["ga", "random"]), plots.novelty_figure(div, ["ga", "random"], 2)]
+    figures = [
+        plots.generation_rewards_figure(generation_rewards(frame), ["ga", "random"]),
+        plots.diversity_figure(div, ["ga", "random"]),
+        plots.novelty_figure(div, ["ga", "random"], 2),
+    ]
     axes = [ax for fig in figures for ax in fig.axes if ax.get_visible()]
     assert len(axes) == 7 and all(ax.get_xlim() == (-1, 1) for ax in axes)  # generation 0 between whole generations
     empty = [ax for ax in axes if [t.get_text() for t in ax.texts] == ["needs a previous generation"]]
@@ -555,6 +567,12 @@ def test_the_run_facts_give_its_wall_time_over_the_first_run_and_its_resumes(run
     copy = tmp_path / "run"
     shutil.copytree(run_dir, copy)
     resumed = [{"at": meta["finished"], "executor": "local"}] * 2  # as if stopped twice, the second time by kill -9
-    (copy / "run.json").write_text(json.dumps({**meta, "resumed": resumed, "wall_seconds": 5.5, "wall_seconds_by_part": [2.0, None, 3.5]}))
+    (copy / "run.json").write_text(
+        json.dumps({**meta, "resumed": resumed, "wall_seconds": 5.5, "wall_seconds_by_part": [2.0, None, 3.5]})
+    )
     facts = dict(write_report(copy, tmp_path / "report").facts)
-    assert facts["wall time"] == "5.5 s over the first run and 2 resumes (1 of the 3 parts recorded no time: killed with kill -9, or still going)"
+    assert (
+        facts["wall time"]
+        == "5.5 s over the first run and 2 resumes"
+        " (1 of the 3 parts recorded no time: killed with kill -9, or still going)"
+    )

@@ -11,15 +11,27 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from gdabench import Controller, ControllerSpec, Designer, DesignerSpec, Environment, EnvironmentSpec, Evaluation, Experiment, PluginChoice, hookimpl
-from gdabench.execution.strategy import EvaluationStrategy
-from gdabench.specs import Factory
+from gdabench import (
+    Controller,
+    ControllerSpec,
+    Designer,
+    DesignerSpec,
+    Environment,
+    EnvironmentSpec,
+    Evaluation,
+    Experiment,
+    PluginChoice,
+    hookimpl,
+)
 from gdabench.body import Body
 from gdabench.errors import ConfigError, TrialError
 from gdabench.plugins import Registry
 from gdabench.results import COLUMNS, RunDirectory
 from gdabench.running.runner import compare
-from listeners import KillAt, Killed
+from gdabench.specs import Factory
+from gdabench.strategy import EvaluationStrategy
+
+from support.listeners import KillAt, Killed
 
 A, B, C, D = "33/00", "44/00", "34/30", "43/03"
 INVALID = "11/11"
@@ -71,12 +83,17 @@ class FakePlugin:
     def gdabench_designers(self):
         return [
             DesignerSpec("scripted", Scripted, "test designer"),
-            DesignerSpec("scripted-ab", Scripted, "a variant: defaults fill in parameters", defaults={"script": [[A, B]]}),
+            DesignerSpec(
+                "scripted-ab", Scripted, "a variant: defaults fill in parameters", defaults={"script": [[A, B]]}
+            ),
         ]
 
     @hookimpl
     def gdabench_environments(self):
-        return [EnvironmentSpec("flaky", Flaky, "test env"), EnvironmentSpec("versioned", Versioned, "test env with a version")]
+        return [
+            EnvironmentSpec("flaky", Flaky, "test env"),
+            EnvironmentSpec("versioned", Versioned, "test env with a version"),
+        ]
 
 
 @pytest.fixture
@@ -116,11 +133,19 @@ def test_invalid_and_duplicates_are_recorded_not_evaluated(tmp_path, reg):
 
 
 def test_spec_defaults_define_variants_and_are_recorded(tmp_path, reg):
-    exp = Experiment(designers=(PluginChoice("scripted-ab"),), envs=PluginChoice("flaky"), shape=(2, 2), population=2, budget=2)
+    exp = Experiment(
+        designers=(PluginChoice("scripted-ab"),), envs=PluginChoice("flaky"), shape=(2, 2), population=2, budget=2
+    )
     df = compare(exp, tmp_path / "run", reg=reg).load_evaluations()
     assert list(df["body"]) == [A, B]
     assert json.loads(df["designer_params"].iloc[0]) == {"script": [[A, B]]}
-    bad = Experiment(designers=(PluginChoice("scripted-ab", {"nope": 1}),), envs=PluginChoice("flaky"), shape=(2, 2), population=2, budget=2)
+    bad = Experiment(
+        designers=(PluginChoice("scripted-ab", {"nope": 1}),),
+        envs=PluginChoice("flaky"),
+        shape=(2, 2),
+        population=2,
+        budget=2,
+    )
     with pytest.raises(ConfigError, match="has no parameter 'nope'"):
         compare(bad, tmp_path / "bad", reg=reg)
 
@@ -165,7 +190,9 @@ def test_designer_failure_leaves_resumable_run(tmp_path, reg):
 
 def test_resume_after_a_crash_mid_trial_gives_the_full_table(tmp_path):
     """A crash after a generation was written: resume continues from there, nothing redone or doubled."""
-    exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), envs=PluginChoice("simple"), budget=150, seeds=(0, 1))
+    exp = Experiment(
+        designers=(PluginChoice("ga"), PluginChoice("random")), envs=PluginChoice("simple"), budget=150, seeds=(0, 1)
+    )
     full = compare(exp, tmp_path / "full").load_evaluations()
 
     with pytest.raises(Killed):
@@ -192,7 +219,9 @@ def test_an_interrupted_compare_gives_the_caller_its_signal_handlers_back(tmp_pa
 
 
 def test_same_command_same_table(tmp_path):
-    exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), envs=PluginChoice("simple"), budget=200, seeds=(0, 1, 2))
+    exp = Experiment(
+        designers=(PluginChoice("ga"), PluginChoice("random")), envs=PluginChoice("simple"), budget=200, seeds=(0, 1, 2)
+    )
     a = compare(exp, tmp_path / "a").load_evaluations()
     b = compare(exp, tmp_path / "b").load_evaluations()
     timing = ["run_id", "eval_seconds", "design_seconds", "elapsed_seconds", "timestamp"]
@@ -203,11 +232,15 @@ def test_same_command_same_table(tmp_path):
     assert all(Body.from_text(t).is_valid() for t in ok["body"])
     # common random numbers: ga and random share generation 0 under the same seed
     g0 = a[a["generation"] == 0]
-    assert list(g0[(g0.designer == "ga") & (g0.seed == 1)]["body"]) == list(g0[(g0.designer == "random") & (g0.seed == 1)]["body"])
+    assert list(g0[(g0.designer == "ga") & (g0.seed == 1)]["body"]) == list(
+        g0[(g0.designer == "random") & (g0.seed == 1)]["body"]
+    )
 
 
 def test_results_schema_and_run_json(tmp_path):
-    exp = Experiment(designers=(PluginChoice("ga", {"survivors": 5}, "ga[survivors=5]"),), envs=PluginChoice("simple"), budget=60)
+    exp = Experiment(
+        designers=(PluginChoice("ga", {"survivors": 5}, "ga[survivors=5]"),), envs=PluginChoice("simple"), budget=60
+    )
     run = compare(exp, tmp_path / "run", command=["gdabench", "compare"])
     df = run.load_evaluations()
     assert list(df.columns[: len(COLUMNS)]) == [c for c in COLUMNS if c in df.columns[: len(COLUMNS)]]
@@ -242,12 +275,27 @@ def test_stuck_designer_is_stopped(tmp_path, reg):
 @pytest.mark.parametrize(
     "exp, fragment",
     [
-        (Experiment(designers=(PluginChoice("nope"),), envs=PluginChoice("simple")), "unknown designer 'nope'; known designers: "),
+        (
+            Experiment(designers=(PluginChoice("nope"),), envs=PluginChoice("simple")),
+            "unknown designer 'nope'; known designers: ",
+        ),
         (Experiment(designers=(PluginChoice("ga"),), envs=PluginChoice("simpel")), "Did you mean 'simple'"),
-        (Experiment(designers=(PluginChoice("ga"),), envs=PluginChoice("simple"), population=0), "population must be an integer from 1 to 10,000, got 0"),
-        (Experiment(designers=(PluginChoice("ga"),), envs=PluginChoice("simple"), budget=10), "budget (10) must be at least the population (25)"),
-        (Experiment(designers=(PluginChoice("ga", {"survivors": 30}),), envs=PluginChoice("simple")), "survivors must be between"),
-        (Experiment(designers=(PluginChoice("ga", {"nope": 1}),), envs=PluginChoice("simple")), "has no parameter 'nope'"),
+        (
+            Experiment(designers=(PluginChoice("ga"),), envs=PluginChoice("simple"), population=0),
+            "population must be an integer from 1 to 10,000, got 0",
+        ),
+        (
+            Experiment(designers=(PluginChoice("ga"),), envs=PluginChoice("simple"), budget=10),
+            "budget (10) must be at least the population (25)",
+        ),
+        (
+            Experiment(designers=(PluginChoice("ga", {"survivors": 30}),), envs=PluginChoice("simple")),
+            "survivors must be between",
+        ),
+        (
+            Experiment(designers=(PluginChoice("ga", {"nope": 1}),), envs=PluginChoice("simple")),
+            "has no parameter 'nope'",
+        ),
         (Experiment(designers=(PluginChoice("ga", {"budget": 1}),), envs=PluginChoice("simple")), "set by the harness"),
     ],
 )
@@ -267,7 +315,9 @@ def test_existing_directory_is_not_overwritten(tmp_path):
 
 def test_stop_at_optimum_ends_a_run_after_the_generation_that_reaches_it(tmp_path, reg):
     script = [[A], ["44/44", C], [D], [B]]  # simple on 2x2: the optimum is 16 ("44/44")
-    full = compare(scripted(script, env="simple", budget=5, population=2), tmp_path / "full", reg=reg).load_evaluations()
+    full = compare(
+        scripted(script, env="simple", budget=5, population=2), tmp_path / "full", reg=reg
+    ).load_evaluations()
     exp = Experiment(**{**scripted(script, env="simple", budget=5, population=2).__dict__, "stop_at_optimum": True})
     run = compare(exp, tmp_path / "stopped", reg=reg)
     stopped = run.load_evaluations()
@@ -298,7 +348,10 @@ class Halving(EvaluationStrategy):
     """Every body on a quarter of the budget, then the better half on all of it."""
 
     def evaluate(self, tasks, evaluate):
-        short = [replace(t, controller=Factory.of(t.controller.factory, {**dict(t.controller.params), "steps": 25})) for t in tasks]
+        short = [
+            replace(t, controller=Factory.of(t.controller.factory, {**dict(t.controller.params), "steps": 25}))
+            for t in tasks
+        ]
         first = evaluate(short)
         keep = sorted(range(len(tasks)), key=lambda i: -first[i].reward)[: len(tasks) // 2]
         outcomes = [replace(o, info={**o.info, "stopped_early": 1}) for o in first]
@@ -326,8 +379,13 @@ class StrategyPlugin:
 
 def test_a_controller_can_hand_each_generation_to_an_evaluation_strategy(tmp_path):
     reg = Registry(entry_points=False, extra_plugins={"strategy": StrategyPlugin()})
-    exp = Experiment(designers=(PluginChoice("random"),), envs=PluginChoice("trained"), controller=PluginChoice("budgeted", {"halving": True}),
-                     population=8, budget=16)
+    exp = Experiment(
+        designers=(PluginChoice("random"),),
+        envs=PluginChoice("trained"),
+        controller=PluginChoice("budgeted", {"halving": True}),
+        population=8,
+        budget=16,
+    )
     rows = compare(exp, tmp_path / "run", reg=reg).load_evaluations()
     for _, generation in rows.groupby("generation"):
         full = generation["body"].map(lambda t: float(Body.from_text(t).voxels.sum()))

@@ -21,22 +21,26 @@ import pandas as pd
 import pytest
 
 from gdabench import Experiment, PluginChoice
-from gdabench.running.runner import compare
 from gdabench.body import Body
 from gdabench.errors import ConfigError
 from gdabench.execution import OK, EvalOutcome, EvalTask, Execution, make_executor
 from gdabench.execution.cache import EvaluationCache
 from gdabench.results import RunDirectory
+from gdabench.running.runner import compare
 from gdabench.specs import Factory
-from listeners import KillAt, Killed
-from processes import cli, table
+
+from support.listeners import KillAt, Killed
+from support.processes import cli, table
+
 
 @pytest.fixture(scope="module")
 def ray_cluster(faulty_site):
     """One local Ray instance for this module; the ray executor joins it instead of starting its own."""
     ray = pytest.importorskip("ray", reason="ray is not installed (pip install -e '.[ray]')")
     path = os.pathsep.join([str(faulty_site), *filter(None, sys.path)])
-    ray.init(num_cpus=2, include_dashboard=False, logging_level="WARNING", runtime_env={"env_vars": {"PYTHONPATH": path}})
+    ray.init(
+        num_cpus=2, include_dashboard=False, logging_level="WARNING", runtime_env={"env_vars": {"PYTHONPATH": path}}
+    )
     yield ray
     ray.shutdown()
 
@@ -51,7 +55,9 @@ def _noisy_expected(frame: pd.DataFrame) -> pd.Series:
     import numpy as np
 
     def reward(row) -> float:
-        seed = np.random.SeedSequence(int(row.seed), spawn_key=(1, int(row.body_hash, 16))).generate_state(1, dtype=np.uint32)[0]
+        seed = np.random.SeedSequence(int(row.seed), spawn_key=(1, int(row.body_hash, 16))).generate_state(
+            1, dtype=np.uint32
+        )[0]
         return voxel_sum(row.body) + float(np.random.default_rng(int(seed)).normal())
 
     return frame.apply(reward, axis=1)
@@ -60,7 +66,9 @@ def _noisy_expected(frame: pd.DataFrame) -> pd.Series:
 @pytest.mark.xdist_group("ray_cluster")  # one Ray instance per module, not one per xdist worker
 def test_same_table_with_every_executor_on_an_environment_that_uses_its_seed(tmp_path, reg, ray_cluster):
     """Serial, trials in parallel, evaluations in parallel, Ray: one table, rewards from (seed, body) alone."""
-    exp = Experiment(designers=(PluginChoice("ga"), PluginChoice("random")), envs=PluginChoice("noisy"), budget=75, seeds=(0, 1))
+    exp = Experiment(
+        designers=(PluginChoice("ga"), PluginChoice("random")), envs=PluginChoice("noisy"), budget=75, seeds=(0, 1)
+    )
     serial = compare(exp, tmp_path / "serial", reg=reg, execution=Execution(jobs=1))
     assert serial.meta["execution"] == Execution(jobs=1).to_json()
     reference = table(tmp_path / "serial")
@@ -98,11 +106,15 @@ def faulty_experiment(tmp_path, reg):
     plain = Experiment(designers=(PluginChoice("ga"),), envs=PluginChoice("faulty"), population=10, budget=30)
     first = compare(plain, tmp_path / "plain", reg=reg).load_evaluations().query("generation == 0")["body"].tolist()
     params = {fault: [first[i]] for fault, i in FAULTS.items()} | {"record_pid": True}
-    return Experiment(designers=(PluginChoice("ga"),), envs=PluginChoice("faulty", params), population=10, budget=30), first
+    return Experiment(
+        designers=(PluginChoice("ga"),), envs=PluginChoice("faulty", params), population=10, budget=30
+    ), first
 
 
 def check_faults(frame: pd.DataFrame, first: list[str]) -> None:
-    assert len(frame) == 30 and frame["n_evals"].tolist() == list(range(1, 31))  # failures use budget, nothing else does
+    assert len(frame) == 30 and frame["n_evals"].tolist() == list(
+        range(1, 31)
+    )  # failures use budget, nothing else does
     g0 = frame[frame["generation"] == 0].set_index("index")
     assert g0["body"].tolist() == first
     for fault, index in FAULTS.items():
@@ -141,7 +153,9 @@ def test_faults_on_ray(tmp_path, reg, faulty_experiment, ray_cluster):
 
 
 def test_serial_without_timeout_evaluates_in_the_driver(tmp_path, reg):
-    exp = Experiment(designers=(PluginChoice("random"),), envs=PluginChoice("faulty", {"record_pid": True}), population=5, budget=5)
+    exp = Experiment(
+        designers=(PluginChoice("random"),), envs=PluginChoice("faulty", {"record_pid": True}), population=5, budget=5
+    )
     frame = compare(exp, tmp_path / "run", reg=reg).load_evaluations()
     assert set(frame["pid"]) == {os.getpid()}
 
@@ -201,13 +215,17 @@ def test_a_generation_goes_to_the_environment_in_batches_and_one_bodys_failure_i
         frame = compare(exp, tmp_path / name, reg=reg, execution=execution).load_evaluations()
         sizes[1] = 0
         assert frame[frame["generation"] == 0]["batch"].fillna(0).astype(int).tolist() == sizes, name
-        pd.testing.assert_frame_equal(table(tmp_path / name, drop=["batch"]), table(tmp_path / "serial", drop=["batch"]))
+        pd.testing.assert_frame_equal(
+            table(tmp_path / name, drop=["batch"]), table(tmp_path / "serial", drop=["batch"])
+        )
 
 
 def test_a_batch_that_fails_as_a_whole_fails_its_bodies_only(tmp_path, reg):
     first = compare(batched_experiment(), tmp_path / "plain", reg=reg).load_evaluations()
     first = first.query("generation == 0")["body"].tolist()
-    frame = compare(batched_experiment(at_once=4, fail_batch_on=[first[5]]), tmp_path / "run", reg=reg).load_evaluations()
+    frame = compare(
+        batched_experiment(at_once=4, fail_batch_on=[first[5]]), tmp_path / "run", reg=reg
+    ).load_evaluations()
     g0 = frame[frame["generation"] == 0]
     assert g0["status"].tolist() == ["ok"] * 4 + ["error"] * 4 + ["ok"] * 2
     assert set(g0["message"].iloc[4:8]) == {"RuntimeError: the batch of 4 failed"}
@@ -215,7 +233,19 @@ def test_a_batch_that_fails_as_a_whole_fails_its_bodies_only(tmp_path, reg):
 
 
 def test_a_trial_whose_every_evaluation_failed_says_so_and_exits_1(tmp_path, faulty_site):
-    args = ["compare", "-d", "random", "--env", "faulty[raise_always=true],simple", "--budget", "50", "--jobs", "1", "-q", "--no-report"]
+    args = [
+        "compare",
+        "-d",
+        "random",
+        "--env",
+        "faulty[raise_always=true],simple",
+        "--budget",
+        "50",
+        "--jobs",
+        "1",
+        "-q",
+        "--no-report",
+    ]
     result = cli(*args, "--out", str(tmp_path / "run"), site=faulty_site)
     assert result.returncode == 1, result.stderr
     lines = [line for line in result.stderr.splitlines() if line.strip()]
@@ -223,7 +253,9 @@ def test_a_trial_whose_every_evaluation_failed_says_so_and_exits_1(tmp_path, fau
     assert any("50 error" in line and "simulator exploded" in line for line in lines[:-1]), result.stderr
     run = RunDirectory.open(tmp_path / "run")
     assert len(run.load_evaluations()) == 100  # the simple trial is whole
-    assert run.meta["status"] == "failed" and run.meta["error"] == lines[-1].removeprefix("error: ")  # as the exit code says
+    assert run.meta["status"] == "failed" and run.meta["error"] == lines[-1].removeprefix(
+        "error: "
+    )  # as the exit code says
     again = cli("compare", "--resume", str(tmp_path / "run"), "-q", "--no-report", site=faulty_site)
     assert again.returncode == 1 and RunDirectory.open(tmp_path / "run").meta["status"] == "failed", again.stderr
     assert len(run.load_evaluations()) == 100
@@ -233,7 +265,17 @@ def test_a_trial_whose_every_evaluation_failed_says_so_and_exits_1(tmp_path, fau
 def test_designer_failure_is_one_line_and_resumable(tmp_path, faulty_site):
     flag = tmp_path / "fail-now"
     flag.touch()
-    args = ["compare", "-d", f"fragile[fail_at=2,flag={flag}]", "--env", "faulty", "--budget", "100", "-q", "--no-report"]
+    args = [
+        "compare",
+        "-d",
+        f"fragile[fail_at=2,flag={flag}]",
+        "--env",
+        "faulty",
+        "--budget",
+        "100",
+        "-q",
+        "--no-report",
+    ]
     failed = cli(*args, "--out", str(tmp_path / "run"), site=faulty_site)
     assert failed.returncode == 1
     lines = [line for line in failed.stderr.splitlines() if line.strip()]
@@ -268,11 +310,24 @@ def test_sigkilled_run_resumes_to_the_uninterrupted_table(tmp_path, faulty_site)
     """A real `gdabench compare` with two workers is SIGKILLed halfway, then resumed serially."""
     out = tmp_path / "killed"
     args = ["compare", "-d", "ga,random", "--env", "faulty", "--budget", "100", "--seeds", "0,1", "-q", "--no-report"]
-    proc = cli(*args, "--jobs", "2", "--workers", "2", "--out", str(out), site=faulty_site, env={"GDABENCH_FAULTY_DELAY": "0.05"}, background=True)
+    proc = cli(
+        *args,
+        "--jobs",
+        "2",
+        "--workers",
+        "2",
+        "--out",
+        str(out),
+        site=faulty_site,
+        env={"GDABENCH_FAULTY_DELAY": "0.05"},
+        background=True,
+    )
     deadline, workers = time.monotonic() + 120, set()
     try:
         # halfway: the first (designer, seed) run is merged and the second has two generations on disk
-        while not ((out / "evaluations.parquet").exists() and len(list((out / "pending").glob("*/gen-*.parquet"))) >= 2):
+        while not (
+            (out / "evaluations.parquet").exists() and len(list((out / "pending").glob("*/gen-*.parquet"))) >= 2
+        ):
             assert proc.poll() is None, f"run ended before it could be killed: {proc.communicate()}"
             assert time.monotonic() < deadline, "run made no progress"
             workers |= _children(proc.pid)
@@ -312,12 +367,21 @@ def test_cache_hits_across_runs_and_counts_them_as_evaluations(tmp_path, reg):
     assert not a["cached"].any()
     ok = a[a["status"] == "ok"]
     assert len(list(cache.rglob("*.json"))) == ok["body_hash"].nunique() == 60
-    second = compare(exp, tmp_path / "second", reg=reg, execution=Execution(cache=str(cache), workers=2)).load_evaluations()
+    second = compare(
+        exp, tmp_path / "second", reg=reg, execution=Execution(cache=str(cache), workers=2)
+    ).load_evaluations()
     assert second["cached"].tolist() == (second["status"] == "ok").tolist()
     assert second.loc[second["cached"], "eval_seconds"].eq(0).all()
-    pd.testing.assert_frame_equal(table(tmp_path / "second", drop=["cached"]), table(tmp_path / "first", drop=["cached"]))
+    pd.testing.assert_frame_equal(
+        table(tmp_path / "second", drop=["cached"]), table(tmp_path / "first", drop=["cached"])
+    )
     # another seed gives other evaluation seeds: nothing to reuse, even for bodies seen before
-    other = compare(Experiment(exp.designers, exp.envs, budget=60, seeds=(1,)), tmp_path / "other", reg=reg, execution=Execution(cache=str(cache))).load_evaluations()
+    other = compare(
+        Experiment(exp.designers, exp.envs, budget=60, seeds=(1,)),
+        tmp_path / "other",
+        reg=reg,
+        execution=Execution(cache=str(cache)),
+    ).load_evaluations()
     assert not other["cached"].any() and len(list(cache.rglob("*.json"))) == 120
 
 
@@ -337,10 +401,30 @@ def test_cache_skips_failures_and_nondeterministic_environments(tmp_path, reg, f
     with pytest.raises(ConfigError, match="cannot use .*file as the evaluation cache"):
         EvaluationCache(tmp_path / "file", {})
     exp = Experiment(designers=(PluginChoice("random"),), envs=PluginChoice("noisy"), budget=25)
-    result = cli("compare", "-d", "random", "--env", "noisy", "--budget", "25", "-q", "--no-report", "--cache", str(tmp_path / "c2"), "--out", str(tmp_path / "run"), site=faulty_site)
+    result = cli(
+        "compare",
+        "-d",
+        "random",
+        "--env",
+        "noisy",
+        "--budget",
+        "25",
+        "-q",
+        "--no-report",
+        "--cache",
+        str(tmp_path / "c2"),
+        "--out",
+        str(tmp_path / "run"),
+        site=faulty_site,
+    )
     assert result.returncode == 0, result.stderr
     assert "not deterministic; the evaluation cache was not used" in result.stderr
-    assert not (tmp_path / "c2").exists() and not compare(exp, tmp_path / "api", reg=reg, execution=Execution(cache=str(tmp_path / "c2"))).load_evaluations()["cached"].any()
+    assert (
+        not (tmp_path / "c2").exists()
+        and not compare(exp, tmp_path / "api", reg=reg, execution=Execution(cache=str(tmp_path / "c2")))
+        .load_evaluations()["cached"]
+        .any()
+    )
 
 
 def _hammer(root: str, worker: int) -> list[float]:
@@ -380,7 +464,11 @@ def test_bad_execution_options_are_one_line(tmp_path, options, fragment):
 
     from gdabench.cli import app
 
-    result = CliRunner().invoke(app, ["compare", "-d", "random", "--budget", "25", "--out", str(tmp_path / "run"), *options], env={"COLUMNS": "200"})
+    result = CliRunner().invoke(
+        app,
+        ["compare", "-d", "random", "--budget", "25", "--out", str(tmp_path / "run"), *options],
+        env={"COLUMNS": "200"},
+    )
     assert result.exit_code == 2
     lines = [line for line in result.stderr.splitlines() if line.strip()]
     assert len(lines) == 1 and fragment in lines[0], result.stderr

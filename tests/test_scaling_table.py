@@ -6,7 +6,8 @@ import json
 
 import pandas as pd
 import pytest
-from scripts import BENCHMARKS, load_script
+
+from support.scripts import BENCHMARKS, load_script
 
 
 @pytest.fixture(scope="module")
@@ -71,7 +72,9 @@ def test_seeds_added_later_join_the_first_run_and_give_the_table_of_one_run(tabl
     assert tests(capsys.readouterr().out) == tests(added)
     rows = pd.read_csv(tmp_path / "later.csv")
     assert (rows["seeds"] == 4).all() and (rows["seed_list"] == "0,1,2,5").all()
-    pd.testing.assert_frame_equal(rows.drop(columns="wall_s_median"), pd.read_csv(tmp_path / "once.csv").drop(columns="wall_s_median"))
+    pd.testing.assert_frame_equal(
+        rows.drop(columns="wall_s_median"), pd.read_csv(tmp_path / "once.csv").drop(columns="wall_s_median")
+    )
 
 
 def test_bad_input_is_one_error_line(table, tmp_path, capsys):
@@ -98,8 +101,26 @@ def test_comparisons_pair_by_seed_orient_a12_and_correct_per_designer(table):
         for s in seeds:
             ga = 0.2 + 0.01 * s + loss  # the baseline loses ground on the larger shapes
             rows.append({"env": "e", "shape": shape, "voxels": voxels, "seed": s, "designer": "ga", "gap": ga})
-            rows.append({"env": "e", "shape": shape, "voxels": voxels, "seed": s, "designer": "better", "gap": ga - 0.05 - 0.001 * s})
-            rows.append({"env": "e", "shape": shape, "voxels": voxels, "seed": s, "designer": "same", "gap": ga + (0.001 if s % 2 else -0.001)})
+            rows.append(
+                {
+                    "env": "e",
+                    "shape": shape,
+                    "voxels": voxels,
+                    "seed": s,
+                    "designer": "better",
+                    "gap": ga - 0.05 - 0.001 * s,
+                }
+            )
+            rows.append(
+                {
+                    "env": "e",
+                    "shape": shape,
+                    "voxels": voxels,
+                    "seed": s,
+                    "designer": "same",
+                    "gap": ga + (0.001 if s % 2 else -0.001),
+                }
+            )
     frame = pd.DataFrame(rows)
     tests = table.comparisons(frame, PluginChoice.parse_list("e"), PluginChoice.parse_list("ga,better,same"), "ga")
     assert list(tests["what"]) == ["3x3", "6x6", "9x9", "6x6 vs 3x3", "9x9 vs 3x3"] * 2
@@ -116,7 +137,7 @@ def test_comparisons_pair_by_seed_orient_a12_and_correct_per_designer(table):
 
 
 def test_the_committed_experiment_follows_the_scripts_rule(table):
-    from gdabench.experiment_build import build_run
+    from gdabench.experiment.build import build_run
 
     experiment = build_run({"config": BENCHMARKS.parent / "experiments" / "scaling.toml"}).experiment
     assert (experiment.population, experiment.budget) == table.scaled(experiment.shape, 40, 1.0)

@@ -11,9 +11,10 @@ import importlib
 
 import numpy as np
 import pytest
-from scripts import load_script
 
 import gdabench
+
+from support.scripts import load_script
 
 parity = load_script("task_parity")
 fidelity = load_script("task_fidelity")

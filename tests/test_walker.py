@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import math
 import subprocess
@@ -17,13 +18,13 @@ from gymnasium.utils.env_checker import check_env
 from PIL import Image
 
 import gdabench
-from gdabench.running.runner import compare as run_experiment
 from gdabench import Body, ConfigError, Evaluation, make_controller, make_env
 from gdabench.controllers.open_loop import OpenLoop, Pattern
 from gdabench.envs.walker import ENV_ID, RETIRED_IDS, gym_env
 from gdabench.envs.walker.mesh import DIAGONAL, build_mesh
 from gdabench.envs.walker.sim import WalkerPhysics
 from gdabench.report.animation import frames_to_gif
+from gdabench.running.runner import compare as run_experiment
 
 VOXEL = 0.1
 WALKER_BODY = "33333/40004/40004"  # a bridge of horizontal actuators on two vertical-actuator legs
@@ -67,7 +68,9 @@ def inchworm(env: gymnasium.Env, *, mirrored: bool = False, steps: int = 500) ->
     """Play the hand-made gait; returns the summed reward."""
     total = 0.0
     for t in range(steps):
-        _, reward, terminated, truncated, _ = env.step(inchworm_action(env.unwrapped.actuator_voxels, t, mirrored=mirrored))
+        _, reward, terminated, truncated, _ = env.step(
+            inchworm_action(env.unwrapped.actuator_voxels, t, mirrored=mirrored)
+        )
         total += reward
         if terminated or truncated:
             break
@@ -76,7 +79,10 @@ def inchworm(env: gymnasium.Env, *, mirrored: bool = False, steps: int = 500) ->
 
 # -- registration and input checking -------------------------------------------------------------
 def test_import_registers_the_env_without_importing_pymunk():
-    code = "import sys, gymnasium, gdabench; assert 'gdabench/Walker-v1' in gymnasium.registry; assert 'pymunk' not in sys.modules"
+    code = (
+        "import sys, gymnasium, gdabench; assert 'gdabench/Walker-v1' in gymnasium.registry;"
+        " assert 'pymunk' not in sys.modules"
+    )
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
@@ -443,7 +449,9 @@ class _ActuatorProbe(gymnasium.Env):
 def test_open_loop_plays_the_documented_sinusoid_through_the_gymnasium_api():
     cells = [[0, 0, 3], [0, 3, 4], [2, 1, 4]]
     probe = _ActuatorProbe(cells)
-    ctrl = OpenLoop(period=10, amplitude=0.5, center=1.1, phase_per_column=0.7, phase_per_row=0.3, vertical_phase=1.0, trials=1)
+    ctrl = OpenLoop(
+        period=10, amplitude=0.5, center=1.1, phase_per_column=0.7, phase_per_row=0.3, vertical_phase=1.0, trials=1
+    )
     result = ctrl.evaluate(lambda: probe, seed=0)
     actions = np.array(probe.actions)
     assert actions.shape == (7, 3)
@@ -461,7 +469,9 @@ def test_open_loop_needs_the_actuator_attribute():
         OpenLoop().evaluate(lambda: env, seed=0)
 
 
-@pytest.mark.parametrize("params", [{"period": 0}, {"amplitude": -1}, {"trials": 0}, {"trials": 1.5}, {"period_range": (5, 2)}])
+@pytest.mark.parametrize(
+    "params", [{"period": 0}, {"amplitude": -1}, {"trials": 0}, {"trials": 1.5}, {"period_range": (5, 2)}]
+)
 def test_open_loop_rejects_bad_parameters(params):
     with pytest.raises(ConfigError):
         OpenLoop(**params)
@@ -533,10 +543,30 @@ def test_jobs_through_the_command_line_give_the_same_walker_table(tmp_path):
     from typer.testing import CliRunner
 
     from gdabench.cli import app
-    from processes import TIMING
 
-    args = ["compare", "-d", "random,ga", "--env", "walker", "--controller", "open-loop", "-C", "trials=1",
-            "--shape", "3x3", "--population", "3", "--budget", "6", "--seeds", "0,1", "-q", "--no-report"]
+    from support.processes import TIMING
+
+    args = [
+        "compare",
+        "-d",
+        "random,ga",
+        "--env",
+        "walker",
+        "--controller",
+        "open-loop",
+        "-C",
+        "trials=1",
+        "--shape",
+        "3x3",
+        "--population",
+        "3",
+        "--budget",
+        "6",
+        "--seeds",
+        "0,1",
+        "-q",
+        "--no-report",
+    ]
     tables = []
     for jobs in ("1", "2"):
         result = CliRunner().invoke(app, [*args, "--jobs", jobs, "--out", str(tmp_path / jobs)])
@@ -549,7 +579,7 @@ def test_jobs_through_the_command_line_give_the_same_walker_table(tmp_path):
 
 def test_physics_defaults_are_one_frozen_dataclass():
     physics = WalkerPhysics()
-    with pytest.raises(Exception):
+    with pytest.raises(dataclasses.FrozenInstanceError):
         physics.ground_friction = 2.0  # type: ignore[misc]
     assert replace(physics, ground_friction=2.0).ground_friction == 2.0
     assert physics.voxel_size == VOXEL

@@ -81,7 +81,7 @@ EXTRAS = {
     "tensorboard": "`--log tensorboard`: each generation's figures as TensorBoard event files",
     "bench": "`benchmarks/ppo_vs_sb3.py`, which compares the `ppo` controller with stable-baselines3's PPO",
     "docs": "building this site: `mkdocs build --strict`",
-    "lint": "`ruff check gdabench` and `mypy`, as CI runs them ([Development](development.md#lint-and-types))",
+    "lint": "`ruff check gdabench tests benchmarks plugins` and `mypy`, as CI runs them ([Development](development.md#lint-and-types))",
 }
 
 #: ``<!-- gdabench:NAME -->`` or ``<!-- gdabench:NAME ARGUMENT -->``
@@ -183,7 +183,7 @@ def thesis_claims(evaluations: Any) -> list[dict[str, Any]]:
     seed; one that compares designers needs all of them on that seed.  A generation's figures are those of
     the bodies evaluated in it (a GA's survivors are not evaluated again, so they are not in it).
     """
-    from gdabench.report.stats import generation_rewards
+    from gdabench.stats.core import generation_rewards
 
     gens = {key: g.set_index("generation") for key, g in generation_rewards(evaluations).groupby(["designer", "seed"])}
     seeds = sorted({seed for _, seed in gens})
@@ -609,14 +609,14 @@ def thesis_budget_bodies(root: Path) -> str:
 
 
 def _reevaluations(root: Path) -> Any:
-    from gdabench.running.reevaluation import load
+    from gdabench.results import load_reevaluations
 
-    return load(root / PUBLISHED / "walker")
+    return load_reevaluations(root / PUBLISHED / "walker")
 
 
 def walker_reevaluated(root: Path) -> str:
     """Per designer of the walker run: raw best against re-evaluated best, the drop and the noise per body."""
-    from gdabench.report.reevaluated import body_noise, pooled_sd, trial_scores
+    from gdabench.stats.reevaluated import body_noise, pooled_sd, trial_scores
 
     again = _reevaluations(root)
     if again.empty:
@@ -644,8 +644,8 @@ def walker_reevaluated(root: Path) -> str:
 
 def walker_measures(root: Path) -> str:
     """Measures that do not saturate: evaluations to a reward (censored) and the mean best-so-far reward."""
-    from gdabench.report.stats import median_interval
-    from gdabench.report.summary import per_run
+    from gdabench.stats.core import median_interval
+    from gdabench.stats.summary import per_run
     from gdabench.report.tables import number, with_interval
 
     rows = _rows(root)

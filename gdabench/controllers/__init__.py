@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-from ..hookspecs import hookimpl
-from ..specs import ControllerSpec
+from ..specs import ControllerSpec, hookimpl
 
 
 @hookimpl

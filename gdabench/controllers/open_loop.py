@@ -35,7 +35,7 @@ import numpy as np
 
 from ..environment import Controller, Evaluation
 from ..errors import ConfigError
-from ..execution.evaluation import report_progress
+from ..sdk import report_progress
 
 #: the attribute of ``env.unwrapped`` that describes the actuator voxels
 ACTUATOR_ATTRIBUTE = "actuator_voxels"

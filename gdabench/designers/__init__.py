@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-from ..hookspecs import hookimpl
-from ..specs import DesignerSpec
+from ..specs import DesignerSpec, hookimpl
 
 
 @hookimpl

@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-from ..hookspecs import hookimpl
-from ..specs import EnvironmentSpec, SuiteSpec
+from ..specs import EnvironmentSpec, SuiteSpec, hookimpl
 from .tasks.catalog import ENTRIES
 
 #: Evolution Gym's grades, in the order suites list them

@@ -28,7 +28,7 @@ from ..errors import ConfigError
 from ..results import atomic_write_bytes, utc_now
 from ..specs import Factory
 from ..statuses import OK
-from .tasks import EvalOutcome, EvalTask
+from ..strategy import EvalOutcome, EvalTask
 
 FORMAT = "gdabench-cache/1"
 

@@ -12,38 +12,17 @@ per process and reused.
 
 from __future__ import annotations
 
-import contextlib
 import math
 import time
-from typing import Any, Callable, Iterator, Sequence
+from typing import Any, Sequence
 
 from ..environment import Environment, Evaluation
 from ..errors import one_line
 from ..specs import Factory
 from ..statuses import ERROR, OK
-from .tasks import EvalOutcome, EvalTask
+from ..strategy import EvalOutcome, EvalTask
 
 _built: dict[str, Any] = {}
-_progress: list[Callable[[str], None]] = []
-
-
-def report_progress(note: str) -> None:
-    """Say how a long evaluation is going (e.g. a batch's training timesteps and speed).  The progress
-    display shows it beside its trial while the bodies are evaluated in the trial's own process (the
-    default ``--workers 1``); elsewhere it goes nowhere.  Cheap: call it every few seconds at most."""
-    if _progress:
-        _progress[-1](note)
-
-
-@contextlib.contextmanager
-def progress_to(callback: Callable[[str], None]) -> Iterator[None]:
-    """Route :func:`report_progress` notes made inside the block to ``callback``."""
-    _progress.append(callback)
-    try:
-        yield
-    finally:
-        _progress.pop()
-
 
 def instance(recipe: Factory) -> Any:
     """The object ``recipe`` builds, built once per process: the one cache of built environments and

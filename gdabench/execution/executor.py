@@ -16,8 +16,8 @@ import abc
 import math
 from typing import Sequence
 
+from ..strategy import EvalOutcome, EvalTask
 from .evaluation import evaluate_batch
-from .tasks import EvalOutcome, EvalTask
 
 
 class Executor(abc.ABC):

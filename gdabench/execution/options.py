@@ -18,23 +18,16 @@ number of jobs and workers.  Execution options may change when a run is resumed.
 
 from __future__ import annotations
 
-import os
 from dataclasses import asdict, dataclass
 from typing import Any, Sequence
 
+from ..cpu import cpu_count
 from ..errors import ConfigError
 from ..specs import Factory
 from .executor import Executor, SerialExecutor
 from .pool import ProcessExecutor
 
 EXECUTORS = ("local", "ray")
-
-
-def cpu_count() -> int:
-    """CPUs this process may use (its affinity mask where the platform has one)."""
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1
 
 
 @dataclass(frozen=True)

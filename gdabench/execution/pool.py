@@ -31,13 +31,13 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from typing import Any, Sequence
 
+from .. import spawning
 from ..errors import GdabenchError, one_line
 from ..specs import Factory
 from ..statuses import ERROR, TIMEOUT
-from . import spawning
+from ..strategy import EvalOutcome, EvalTask
 from .evaluation import evaluate_batch, prepare
 from .executor import Executor, batches
-from .tasks import EvalOutcome, EvalTask
 
 #: seconds the pool waits for its first worker to import gdabench and build the environment
 #: (workers that start later, e.g. queued on a busy Ray cluster, may take as long as they need)

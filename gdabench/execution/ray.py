@@ -18,14 +18,14 @@ import sys
 from dataclasses import dataclass
 from typing import Any, Sequence
 
+from .. import spawning
 from ..errors import ConfigError, one_line
 from ..specs import Factory
 from ..statuses import ERROR
-from . import spawning
+from ..strategy import EvalOutcome, EvalTask
 from .evaluation import evaluate_batch, prepare
 from .executor import Executor
 from .pool import DIED, READY, RESULT, Backend, Slot, WorkerGone, WorkerPool
-from .tasks import EvalOutcome, EvalTask
 
 
 def import_ray() -> Any:

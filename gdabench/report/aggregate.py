@@ -37,9 +37,9 @@ import pandas as pd
 from numpy.typing import ArrayLike
 from scipy.stats import trim_mean
 
+from ..stats.core import BOOTSTRAP_SEED, CONFIDENCE, RESAMPLES
 from .pairwise import a12
 from .runtimes import run_scores
-from .stats import BOOTSTRAP_SEED, CONFIDENCE, RESAMPLES
 
 #: thresholds of the default performance profile
 PROFILE_POINTS = 51

@@ -1,7 +1,7 @@
 """Animations of a body acting, through the environment's ``render_frames`` hook.
 
 The report rebuilds the run's environment (and controller) from ``run.json`` through its
-:class:`~gdabench.running.plan.Plan` and asks it for frames of a body, passing the same evaluation seed
+:class:`~gdabench.experiment.plan.Plan` and asks it for frames of a body, passing the same evaluation seed
 and work directory the run used, so a controller that saved its trained policy there can
 replay it.  Environments with nothing to show
 (``simple``) return None and get no animation.
@@ -55,7 +55,7 @@ def frames_to_gif(
 def animate(env: Environment, controller: Controller | None, body: Body, *, seed: int, workdir: Path) -> bytes | None:
     """A GIF of ``body`` acting in ``env`` as it did in the trial with this seed, or None if the env shows nothing.
 
-    ``workdir`` is the directory the body's evaluation used (see :meth:`gdabench.running.plan.Plan.workdir`).
+    ``workdir`` is the directory the body's evaluation used (see :meth:`gdabench.experiment.plan.Plan.workdir`).
     """
     frames = env.render_frames(body, seed=evaluation_seed(seed, body.hash), controller=controller, workdir=workdir)
     return None if frames is None else frames_to_gif(frames)

@@ -27,13 +27,21 @@ import numpy as np
 import pandas as pd
 
 from ..body import Body
-from ..config import Experiment, Primary
 from ..errors import ConfigError, GdabenchError, RunDirectoryError
+from ..experiment.config import Experiment, Primary
+from ..experiment.plan import Plan
 from ..names import file_name
 from ..plugins import Registry, registry
-from ..results import RunDirectory, is_file
-from ..running.plan import Plan
-from ..running.reevaluation import load as load_reevaluations
+from ..results import RunDirectory, is_file, load_reevaluations
+from ..stats.core import (
+    CONFIDENCE,
+    best_so_far_curve,
+    fewest_for,
+    generation_rewards,
+    median_band,
+    order_statistic_ranks,
+)
+from ..stats.summary import failure_counts, per_run, summarize, thresholds
 from ..statuses import COUNTED, OK
 from . import plots
 from .animation import animate
@@ -45,8 +53,6 @@ from .markdown import render_markdown
 from .reevaluated import section as reevaluated_section
 from .staging import staged_folder
 from .stat_pages import statistics_sections
-from .stats import CONFIDENCE, best_so_far_curve, fewest_for, generation_rewards, median_band, order_statistic_ranks
-from .summary import failure_counts, per_run, summarize, thresholds
 from .tables import summary_cells
 
 #: columns the report needs; everything else in the table is optional

@@ -49,7 +49,7 @@ class Report:
     title: str
     facts: list[tuple[str, str]]
     notes: list[str]
-    summary: pd.DataFrame  # the per-designer table (report/summary.py), which headers and rows show
+    summary: pd.DataFrame  # the per-designer table (stats/summary.py), which headers and rows show
     headers: list[str]
     rows: list[list[str]]
     sections: list[Section] = field(default_factory=list)

@@ -28,8 +28,8 @@ import pandas as pd
 
 from ..body import CATEGORIES, NEAR_COPY, categorize, hamming
 from ..errors import RunDirectoryError
+from ..stats.core import RUN_KEYS
 from ..statuses import OK
-from .stats import RUN_KEYS
 
 #: survivors per generation in the thesis's GDA and simple-environment GA
 SURVIVORS = 5

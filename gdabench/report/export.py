@@ -36,8 +36,9 @@ from ..body import Body
 from ..errors import ConfigError
 from ..names import file_name
 from ..results import RunDirectory, atomic_write_bytes, is_dir, is_file
+from ..stats.core import with_run_id
 from ..statuses import OK
-from .runtimes import RunTrace, run_traces, with_run_id
+from .runtimes import RunTrace, run_traces
 from .staging import staged_folder, writing
 
 FORMATS = ("ioh", "csv")
@@ -103,7 +104,7 @@ def _write_ioh(frame: pd.DataFrame, root: Path) -> list[Path]:
             dimension = _dimension(rows)
             data_path = f"data_f{fid}_{fname}/IOHprofiler_f{fid}_DIM{dimension}.dat"
             (folder / data_path).parent.mkdir(parents=True, exist_ok=True)
-            (folder / data_path).write_text("".join(_dat_block(t) for t in mine))
+            (folder / data_path).write_text("".join(dat_block(t) for t in mine))
             index = {
                 "version": IOH_VERSION,
                 "suite": SUITE,
@@ -156,7 +157,7 @@ def _value(x: float) -> str:
     return "-inf" if np.isnan(x) else repr(float(x))
 
 
-def _dat_block(trace: RunTrace) -> str:
+def dat_block(trace: RunTrace) -> str:
     """Header, then the first, every improving and the last evaluation with its best-so-far."""
     curve = trace.curve
     if not len(curve):

@@ -16,7 +16,7 @@ designers whose runs found the same best body under one seed tie there), and say
 (``untied``); with fewer than :func:`~.power.minimum_seeds` of them no outcome can be significant.
 
 **Primary and exploratory.**  An experiment may name one *primary* comparison before it runs
-(:class:`~gdabench.config.Primary`): that pair is tested alone, on its metric, at its level, with
+(:class:`~gdabench.experiment.config.Primary`): that pair is tested alone, on its metric, at its level, with
 no correction.  Every other pair is *exploratory*: the p-values of all of them of one environment
 and metric are one family, corrected with Holm's step-down procedure, which controls the chance
 of any false "significant" among them at ``alpha``.
@@ -39,10 +39,11 @@ import pandas as pd
 from numpy.typing import ArrayLike
 from scipy.stats import mannwhitneyu, wilcoxon
 
-from ..config import Primary
 from ..errors import ConfigError
-from .power import ALPHA, POWER, minimum_seeds, seeds_needed
-from .runtimes import resolve_metric, run_scores, with_run_id
+from ..experiment.config import Primary
+from ..stats.core import with_run_id
+from ..stats.power import ALPHA, POWER, minimum_seeds, seeds_needed
+from .runtimes import resolve_metric, run_scores
 
 PAIRINGS = ("auto", "paired", "unpaired")
 #: |A12 - 0.5| thresholds of Vargha and Delaney (2000) for a small, medium and large effect

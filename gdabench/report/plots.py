@@ -15,8 +15,8 @@ import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from ..stats.core import CONFIDENCE
 from .diversity import CATEGORIES, COLUMNS as DIVERSITY_COLUMNS
-from .stats import CONFIDENCE
 
 CATEGORY_COLOURS = ("#7f7f7f", "#c7c7c7", "#fdae6b", "#6baed6")
 STAT_COLOURS = {"max": "tab:green", "mean": "tab:blue", "min": "tab:red"}

@@ -31,8 +31,7 @@ import pandas as pd
 from numpy.typing import ArrayLike
 
 from ..errors import ConfigError
-from ..statuses import COUNTED
-from .stats import (
+from ..stats.core import (
     BOOTSTRAP_SEED,
     CONFIDENCE,
     RESAMPLES,
@@ -41,7 +40,9 @@ from .stats import (
     censored_median,
     mean_best_so_far,
     median_interval,
+    with_run_id,
 )
+from ..statuses import COUNTED
 
 #: targets in the ERT table, and in the ECDF (where many targets make a smooth curve)
 TABLE_TARGETS = 5
@@ -108,11 +109,6 @@ def run_traces(frame: pd.DataFrame) -> list[RunTrace]:
     return sorted(traces, key=lambda t: (envs[t.env], designers[t.designer], t.run_id, t.seed))
 
 
-def with_run_id(frame: pd.DataFrame) -> pd.DataFrame:
-    """The table with ``run_id`` as text ('' for tables written before it existed)."""
-    return frame.assign(run_id=frame["run_id"].astype(str) if "run_id" in frame.columns else "")
-
-
 def _order(column: pd.Series) -> dict[str, int]:
     return {str(v): i for i, v in enumerate(pd.unique(column))}
 
@@ -159,7 +155,7 @@ def run_scores(
         raise ConfigError(f"unknown metric {metric!r}; choose one of {', '.join(METRIC_NAMES)}")
     columns = ["env", "designer", "run_id", "seed", "evaluations", "score"]
     if metric == REEVALUATED:
-        from .reevaluated import TRIAL, trial_scores
+        from ..stats.reevaluated import TRIAL, trial_scores
 
         if reevaluations is None or not len(reevaluations):
             raise ConfigError("the re-evaluated best needs the run's re-evaluations (gdabench reevaluate RUN_DIR)")

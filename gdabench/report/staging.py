@@ -22,9 +22,9 @@ try:
 except ImportError:  # pragma: no cover - Windows, where filelock removes its file itself
     fcntl = None  # type: ignore[assignment]
 
+from .. import faults
 from ..errors import GdabenchError
 from ..results import check_out_dir, write_error
-from ..running import faults
 
 
 def _lock(out: Path) -> Path:

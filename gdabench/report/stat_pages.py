@@ -13,15 +13,15 @@ from typing import Mapping
 
 import pandas as pd
 
-from ..config import Primary
+from ..experiment.config import Primary
 from ..names import file_name
+from ..stats.core import CONFIDENCE
+from ..stats.power import ALPHA, POWER, REFERENCE_EFFECTS, minimum_seeds, seeds_needed
 from . import plots, stat_plots
 from .aggregate import PROFILE_POINTS, aggregate_scores, normalisation_words, normalised_scores
 from .content import Figure, Section, Table
 from .pairwise import pairwise
-from .power import ALPHA, POWER, REFERENCE_EFFECTS, minimum_seeds, seeds_needed
 from .runtimes import ECDF_TARGETS, METRIC_NAMES, fixed_budget, fixed_target, resolve_metric, runtime_ecdf
-from .stats import CONFIDENCE
 from .tables import NOT_REACHED, number, with_interval
 
 

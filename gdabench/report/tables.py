@@ -9,7 +9,7 @@ import math
 
 import pandas as pd
 
-from .stats import CONFIDENCE
+from ..stats.core import CONFIDENCE
 
 NOT_REACHED = "not reached"
 
@@ -50,7 +50,7 @@ def has_threshold(summary: pd.DataFrame) -> bool:
 def summary_cells(
     summary: pd.DataFrame, confidence: float = CONFIDENCE, compact: bool = False
 ) -> tuple[list[str], list[list[str]]]:
-    """Headers and rows of the per-designer table built from :func:`gdabench.report.summary.summarize`.
+    """Headers and rows of the per-designer table built from :func:`gdabench.stats.summary.summarize`.
 
     ``compact`` is the terminal's view, which fits 80 columns: the best reward with its
     interval, seeds reaching the threshold and the median evaluations to it, and wall time;

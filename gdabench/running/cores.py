@@ -17,8 +17,8 @@ import sys
 import time
 from typing import Any
 
+from ..cpu import cpu_count
 from ..envs.voxel import PARALLEL_FROM
-from ..execution.options import cpu_count
 
 _pool: Any = None  # shared count of spare cores (multiprocessing.Value), set in a run's trial processes
 _held: Any = None  # cores this process's current trial holds (multiprocessing.Value)

@@ -12,11 +12,11 @@ from ..errors import one_line
 if TYPE_CHECKING:
     import pandas as pd
 
+    from ..experiment.plan import Plan
+    from ..experiment.trial_spec import TrialSpec
     from ..plugins import Registry
     from .hosts import BodiesDone
-    from .plan import Plan
     from .trial import GenerationResult
-    from .trial_spec import TrialSpec
 
 
 class RunListener:

@@ -23,26 +23,27 @@ from typing import Any, Callable, Sequence
 
 import pandas as pd
 
+from .. import spawning
 from ..errors import GdabenchError, one_line
-from ..execution import spawning
 from ..execution.cache import EvaluationCache
-from ..execution.evaluation import instance, progress_to
+from ..execution.evaluation import instance
 from ..execution.executor import Executor
 from ..execution.options import Execution, make_executor
 from ..execution.pool import death_message, exit_when_orphaned
-from ..execution.tasks import EvalOutcome, EvalTask, Evaluate
+from ..experiment.trial_spec import TrialSpec
 from ..results import Checkpoint, RunDirectory
+from ..sdk import progress_to
+from ..strategy import EvalOutcome, EvalTask, Evaluate
 from . import cores
 from .outcomes import RunOutcomes
 from .trial import GenerationResult, Trial
-from .trial_spec import TrialSpec
 
 
 @dataclass(frozen=True)
 class BodiesDone:
     """Progress inside a generation, sent while it runs: ``done`` of its ``total`` new bodies are evaluated;
     ``note``: what the evaluation running now says about itself
-    (:func:`gdabench.execution.evaluation.report_progress`)."""
+    (:func:`gdabench.sdk.report_progress`)."""
 
     trial: int  # the spec's index
     generation: int

@@ -21,11 +21,11 @@ import json
 import shutil
 from pathlib import Path
 
+from .. import faults
 from ..execution.cache import plain
-from ..execution.tasks import EvalOutcome, EvalTask
 from ..results import atomic_write_bytes
 from ..statuses import OK
-from . import faults
+from ..strategy import EvalOutcome, EvalTask
 
 OUTCOMES = "outcomes"
 

@@ -25,11 +25,11 @@ from rich.progress import (
 from rich.table import Column
 from rich.text import Text
 
-from ..config import Experiment
+from ..experiment.config import Experiment
+from ..experiment.trial_spec import TrialSpec
 from .events import RunListener
 from .hosts import BodiesDone
 from .trial import GenerationResult
-from .trial_spec import TrialSpec
 
 Key = tuple[str, str, int]
 #: generations an estimate of the time per evaluation looks back on

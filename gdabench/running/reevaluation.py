@@ -6,11 +6,12 @@ every trial has spent its budget, the ``top`` best distinct bodies of each trial
 the trial; ties: the earlier) are evaluated again under ``seeds`` further seeds each
 (:func:`gdabench.seeding.reevaluation_seed`, a stream of its own, so the draw that selected a body
 is never reused to score it).  The report scores the trial by the best of those bodies' means over
-the further seeds (:func:`gdabench.report.reevaluated.trial_scores`).
+the further seeds (:func:`gdabench.stats.reevaluated.trial_scores`).
 
-Rows go to ``<run>/reevaluations.parquet`` (:data:`COLUMNS`), rewritten whole after each trial's
-bodies, so a killed run loses at most one trial's re-evaluations and a resume does only what is
-missing.  Re-evaluations do not use a trial's budget and never enter ``evaluations.parquet``.
+Rows go to ``<run>/reevaluations.parquet`` (:data:`gdabench.results.REEVALUATION_COLUMNS`),
+rewritten whole after each trial's bodies, so a killed run loses at most one trial's re-evaluations
+and a resume does only what is missing.  Re-evaluations do not use a trial's budget and never enter
+``evaluations.parquet``.
 """
 
 from __future__ import annotations
@@ -23,23 +24,25 @@ import pandas as pd
 
 from .. import seeding
 from ..body import Body
-from ..config import Reevaluation
+from ..cpu import cpu_count
 from ..errors import ConfigError
 from ..execution.executor import Executor
-from ..execution.options import Execution, cpu_count, make_executor
-from ..execution.tasks import EvalTask
+from ..execution.options import Execution, make_executor
+from ..experiment.config import Reevaluation
+from ..experiment.plan import Plan
 from ..plugins import Registry
-from ..results import RunDirectory, atomic_write_bytes, parquet_bytes, read_parquet
+from ..results import (
+    REEVALUATION_COLUMNS,
+    REEVALUATION_KEYS,
+    REEVALUATION_TYPES,
+    REEVALUATIONS,
+    RunDirectory,
+    atomic_write_bytes,
+    load_reevaluations,
+    parquet_bytes,
+)
 from ..statuses import OK
-from .plan import Plan
-
-REEVALUATIONS = "reevaluations.parquet"
-COLUMNS = ["env", "designer", "seed", "run_id", "rank", "body", "body_hash", "first_reward", "replicate",
-           "eval_seed", "reward", "status", "message", "eval_seconds"]  # fmt: skip
-KEYS = ["env", "designer", "seed", "body_hash", "replicate"]
-TYPES = {"env": str, "designer": str, "seed": "int64", "run_id": str, "rank": "int64", "body": str, "body_hash": str,
-         "first_reward": float, "replicate": "int64", "eval_seed": "int64", "reward": float, "status": str,
-         "message": str, "eval_seconds": float}  # fmt: skip
+from ..strategy import EvalTask
 
 
 def top_bodies(trial: pd.DataFrame, top: int) -> pd.DataFrame:
@@ -47,14 +50,6 @@ def top_bodies(trial: pd.DataFrame, top: int) -> pd.DataFrame:
     ok = trial[trial["status"] == OK]
     ranked = ok.sort_values(["reward", "n_evals", "index"], ascending=[False, True, True], kind="stable")
     return ranked.drop_duplicates("body_hash").head(top)
-
-
-def load(run_path: str | Path) -> pd.DataFrame:
-    """The run's re-evaluations so far (an empty table with :data:`COLUMNS` where there are none)."""
-    path = Path(run_path) / REEVALUATIONS
-    if not path.exists():
-        return pd.DataFrame(columns=COLUMNS).astype(TYPES)
-    return read_parquet(path)
 
 
 def reevaluate(
@@ -71,8 +66,8 @@ def reevaluate(
     ``on_trial(title, done, total)`` is told after each trial's bodies.
     """
     frame = run.load_evaluations()
-    table = load(run.path)
-    done = set(map(tuple, table.loc[table["status"] == OK, KEYS].itertuples(index=False)))
+    table = load_reevaluations(run.path)
+    done = set(map(tuple, table.loc[table["status"] == OK, REEVALUATION_KEYS].itertuples(index=False)))
     table = table[table["status"] == OK]  # failed re-evaluations are tried again
     envs = {e.label: e for e in plan.envs}
     trials = list(dict.fromkeys(zip(frame["env"], frame["designer"], frame["seed"])))
@@ -95,8 +90,9 @@ def reevaluate(
             new = [{**row, "reward": o.reward if o.status == OK else math.nan, "status": o.status,
                     "message": o.message, "eval_seconds": o.seconds}
                    for (row, _), o in zip(todo, outcomes)]  # fmt: skip
-            table = pd.concat([table, pd.DataFrame(new, columns=COLUMNS).astype(TYPES)], ignore_index=True)
-            atomic_write_bytes(run.path / REEVALUATIONS, parquet_bytes(table[COLUMNS]))
+            added = pd.DataFrame(new, columns=REEVALUATION_COLUMNS).astype(REEVALUATION_TYPES)
+            table = pd.concat([table, added], ignore_index=True)
+            atomic_write_bytes(run.path / REEVALUATIONS, parquet_bytes(table[REEVALUATION_COLUMNS]))
         if on_trial is not None:
             on_trial(f"{designer} seed {seed}" + (f" on {env}" if len(envs) > 1 else ""), number, len(trials))
     return table
@@ -135,7 +131,7 @@ def reevaluate_directory(
     ``run.json`` records the setting under ``reevaluated``."""
     import time
 
-    from ..experiment_build import stored_experiment
+    from ..experiment.build import stored_experiment
     from ..plugins import registry
 
     run = RunDirectory.open(run_dir)

@@ -22,22 +22,33 @@ from collections import deque
 from pathlib import Path
 from typing import Any, Iterator, Sequence
 
-from ..config import Experiment
-from ..errors import ConfigError, GdabenchError, RunDirectoryError, Terminated, TrialError, one_line
-from ..execution import spawning
-from ..execution.options import Execution, cpu_count
-from ..experiment_build import default_out_dir, stored_experiment, with_added_seeds
+from .. import faults, spawning
+from ..cpu import cpu_count
+from ..errors import GdabenchError, RunDirectoryError, Terminated, TrialError, one_line
+from ..execution.options import Execution
+from ..experiment.build import RunSetup, setup_run
+from ..experiment.config import Experiment
+from ..experiment.plan import Plan
+from ..experiment.trial_spec import TrialSpec
 from ..plugins import Registry, registry
-from ..report.summary import failure_counts, nothing_measured, summarize
-from ..results import SUMMARY, Checkpoint, RunDirectory, no_space, platform_info, utc_now, versions, write_error
-from . import cores, faults
+from ..results import (
+    SUMMARY,
+    Checkpoint,
+    RunDirectory,
+    load_reevaluations,
+    no_space,
+    platform_info,
+    utc_now,
+    versions,
+    write_error,
+)
+from ..stats.summary import failure_counts, nothing_measured, summarize
+from . import cores
 from .events import Listeners, PluginHooks, RunListener
 from .hosts import BodiesDone, InProcess, LocalProcesses, TrialHost, TrialWorkers
 from .outcomes import RunOutcomes
-from .plan import Plan
-from .reevaluation import load as load_reevaluations, reevaluate_run
+from .reevaluation import reevaluate_run
 from .trial import GenerationResult
-from .trial_spec import TrialSpec
 
 
 def _new_meta(plan: Plan, reg: Registry, command: Sequence[str] | None, execution: dict[str, Any]) -> dict[str, Any]:
@@ -77,37 +88,35 @@ def compare(
     A resume takes the experiment from the directory; ``experiment`` may only add seeds to it
     (even to a complete run), which run as if they had been in the run from the start.
     """
+    setup = setup_run(experiment, out, resume=resume, execution=execution, reg=reg)
+    return execute(setup, listener=listener, command=command, reg=reg)
+
+
+def execute(
+    setup: RunSetup,
+    *,
+    listener: RunListener | None = None,
+    command: Sequence[str] | None = None,
+    reg: Registry | None = None,
+) -> RunDirectory:
+    """Run what ``setup`` (from :func:`~gdabench.experiment.build.build_run`) resolved: a new run into its
+    directory, or the resume of the run directory it opened; return the finished run directory."""
     reg = reg or registry()
-    execution = execution or Execution()
+    execution, plan, resume = setup.execution, setup.plan, setup.resumed is not None
     listener = Listeners([listener or RunListener(), PluginHooks(reg)])
-    if resume:
-        if out is None:
-            raise RunDirectoryError("resume needs the run directory")
-        run = RunDirectory.open(out)
-        meta = run.meta
-        stored = stored_experiment(run)
-        experiment = with_added_seeds(stored, experiment)
-        if meta.get("status") == "complete" and experiment == stored:
-            if not run.evaluations_path.exists():
-                raise RunDirectoryError(
-                    f"run {run.path} is complete but its table {run.evaluations_path} is missing; restore it"
-                )
+    if setup.resumed is not None:
+        run = setup.resumed
+        if plan is None:  # a complete run, resumed unchanged: nothing to do
             return run
-        if execution.timeout is None and (meta.get("execution") or {}).get("timeout"):
-            execution = Execution(**{**execution.to_json(), "timeout": meta["execution"]["timeout"]})
-        plan = Plan.resolve(experiment, reg)
-        plan.check_versions(run.path, meta, "resuming")
+        meta = run.meta
         run.lock()
-        added = {"added_seeds": list(experiment.seeds[len(stored.seeds):])} if experiment != stored else {}
-        run.update_meta(status="running", config=experiment.to_json(), error=None,
+        added = {"added_seeds": list(setup.added_seeds)} if setup.added_seeds else {}
+        run.update_meta(status="running", config=plan.experiment.to_json(), error=None,
                         resumed=[*meta.get("resumed", []), {"at": utc_now(), **execution.to_json(), **added}],
-                        **run.part_started())
+                        **run.part_started())  # fmt: skip
     else:
-        if experiment is None:
-            raise ConfigError("compare() needs an experiment unless it resumes a run")
-        plan = Plan.resolve(experiment, reg)
-        out = Path(out) if out is not None else default_out_dir(experiment)
-        run = RunDirectory.create(out, _new_meta(plan, reg, command, execution.to_json()))
+        assert plan is not None, "a new run's setup has a plan"
+        run = RunDirectory.create(setup.out, _new_meta(plan, reg, command, execution.to_json()))
     started = time.monotonic()  # this part of the run: the first run, or a resume
     listener.run_started(run.path, plan, resume)
     try:

@@ -28,27 +28,14 @@ from ..body import Body, as_body
 from ..designer import Designer
 from ..environment import Environment
 from ..errors import DesignerError, GdabenchError, one_line
-from ..execution.tasks import EvalTask, Evaluate
+from ..experiment.trial_spec import TrialSpec
+from ..hookspecs import GenerationReport
 from ..results import COLUMNS, Checkpoint, utc_now
 from ..statuses import COUNTED, DUPLICATE, INVALID, OK
-from .trial_spec import TrialSpec
+from ..strategy import EvalTask, Evaluate
 
 #: a designer that proposes nothing new for this many generations in a row is stopped
 MAX_STALE_GENERATIONS = 20
-
-
-@dataclass(frozen=True)
-class GenerationReport:
-    """Progress of one trial after one generation (what progress bars and hooks see)."""
-
-    designer: str
-    env: str
-    seed: int
-    generation: int
-    n_evals: int
-    budget: int
-    new_evals: int
-    best: float
 
 
 @dataclass(frozen=True)

@@ -9,10 +9,10 @@ from __future__ import annotations
 import numpy as np
 
 from gdabench import Experiment, PluginChoice
-from gdabench.running.runner import compare
 from gdabench.body import EVOGYM_VOXEL_WEIGHTS, invalid_reason
 from gdabench.designers.ga import GeneticAlgorithm
 from gdabench.envs.simple import SumOfVoxels
+from gdabench.running.runner import compare
 from gdabench.seeding import designer_seed
 
 

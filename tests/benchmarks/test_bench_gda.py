@@ -29,10 +29,12 @@ from gdabench.designers.gda.training import Trainer, repeat_to
 from gdabench.torch_runtime import torch_threads
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from gda_reference import RefUNet  # noqa: E402
+from support.gda_reference import RefUNet
 
 SCHEDULE = make_schedule("linear", 500, 1e-4, 0.02)
-SURVIVORS = torch.from_numpy(encode(np.stack([random_body(np.random.default_rng(i)).voxels for i in range(5)])))[:, None]
+SURVIVORS = torch.from_numpy(encode(np.stack([random_body(np.random.default_rng(i)).voxels for i in range(5)])))[
+    :, None
+]
 
 
 @pytest.fixture(autouse=True)
@@ -57,7 +59,9 @@ def test_train_epoch(benchmark, compiled):
     trainer.reset(generator)
     counters.clear()
     trainer.fit(SURVIVORS, epochs=2, generator=generator)  # compiles, if asked
-    assert counters["stats"]["unique_graphs"] == (2 if compiled else 0)  # batches of 5 and the last of 4, no recompilation
+    assert counters["stats"]["unique_graphs"] == (
+        2 if compiled else 0
+    )  # batches of 5 and the last of 4, no recompilation
     result = benchmark(lambda: trainer.fit(SURVIVORS, epochs=1, generator=generator))
     assert result.epochs == 1
 
@@ -136,7 +140,9 @@ def test_generation(benchmark, compiled):
     if compiled:
         needs_enabled(benchmark)
     epochs = 5 if benchmark.disabled else 250
-    designer = make_designer("gda", seed=0, population=25, budget=10_000, epochs=epochs, compile=compiled, speculate=False)
+    designer = make_designer(
+        "gda", seed=0, population=25, budget=10_000, epochs=epochs, compile=compiled, speculate=False
+    )
     bodies = designer.ask()
     designer.tell(bodies, [float(np.asarray(b.voxels).sum()) for b in bodies])
     checkpoint = pickle.dumps(designer)  # the same generation every round; the trainer (compiled once) is shared

@@ -32,7 +32,20 @@ def test_process_executor_generation_on_simple(benchmark):
 
 
 def test_bench_scale_script_runs():
-    args = ["--executors", "process", "--evals", "4", "--population", "2", "--overhead-evals", "10", "--repeats", "1", "-E", "iterations=1000"]
+    args = [
+        "--executors",
+        "process",
+        "--evals",
+        "4",
+        "--population",
+        "2",
+        "--overhead-evals",
+        "10",
+        "--repeats",
+        "1",
+        "-E",
+        "iterations=1000",
+    ]
     result = subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
     assert "process 2 workers" in result.stdout and "speed-up" in result.stdout and "ms per evaluation" in result.stdout

@@ -16,10 +16,8 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from ...environment import Bodies, Controller, Evaluation
-from ...envs.batched import BodyBatch, GymBodies
 from ...errors import ConfigError
-from ...execution.evaluation import report_progress
-from ...params import config_signature
+from ...sdk import BodyBatch, GymBodies, config_signature, report_progress
 from ...torch_runtime import resolve_device
 from .config import PPOConfig
 from .evaluation import evaluate_policies

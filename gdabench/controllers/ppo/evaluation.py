@@ -25,7 +25,7 @@ from typing import Callable, Sequence
 import numpy as np
 import torch
 
-from ...envs.batched import BodyBatch
+from ...sdk import BodyBatch
 from .networks import Stacked
 
 

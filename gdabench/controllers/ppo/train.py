@@ -34,7 +34,7 @@ import numpy as np
 import torch
 from torchrl.objectives.value.functional import generalized_advantage_estimate
 
-from ...envs.batched import BodyBatch
+from ...sdk import BodyBatch
 from ...torch_runtime import torch_threads
 from .config import PPOConfig
 from .evaluation import as_input, evaluate_policies

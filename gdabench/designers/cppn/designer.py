@@ -69,6 +69,11 @@ class CppnNeat(Designer):
             )
             self._species.speciate(self._config, self._genomes, self.generation)
 
+    @property
+    def neat_config(self) -> Any:
+        """The neat-python configuration in use (``neat.Config``): the file's settings, the harness's population."""
+        return self._config
+
     # -- ask/tell ----------------------------------------------------------------------------
     def ask(self) -> list[Body]:
         if self._proposal is None:

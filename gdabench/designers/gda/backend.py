@@ -14,7 +14,7 @@ from typing import Any, Callable
 
 import torch
 
-from ...execution import cpu_count
+from ...sdk import cpu_count
 from ...torch_runtime import resolve_device
 from .config import GdaConfig
 from .speculation import Following, Speculation, WorkerError

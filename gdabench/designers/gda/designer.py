@@ -55,8 +55,7 @@ from ... import cpu
 from ...body import Body, as_body, invalid_reason, mutate, random_body
 from ...designer import Designer, top_k
 from ...errors import GdabenchError
-from ...execution.evaluation import report_progress
-from ...params import config_signature
+from ...sdk import config_signature, report_progress
 from ...torch_runtime import torch_threads
 from .backend import Borrow, choose_backend
 from .config import GdaConfig

@@ -20,7 +20,7 @@ def load_prior(source: str, top: int, shape: tuple[int, int]) -> list[Body]:
         )
     try:
         if path.suffix == ".parquet":
-            from ...results import read_parquet
+            from ...sdk import read_parquet
 
             rows = read_parquet(path, columns=["body", "reward", "status"])
             rows = rows[rows["status"] == "ok"].sort_values("reward", ascending=False, kind="stable")

@@ -34,7 +34,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ...errors import GdabenchError
-from ...execution import spawning
+from ...sdk import spawning
 from ...torch_runtime import torch_threads
 from .training import FitResult, Trainer, TrainerSpec, TrainJob
 

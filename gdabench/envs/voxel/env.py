@@ -19,7 +19,7 @@ import numpy as np
 from ...body import Body
 from ...environment import Bodies
 from ...errors import ConfigError
-from ..batched import ArrayBodies
+from ...sdk import ArrayBodies
 from ..controlled import ControlledEnvironment
 from ..tasks import CATALOG
 from . import env_id

@@ -29,7 +29,7 @@ def _evogym() -> Any:
     try:
         with contextlib.redirect_stdout(io.StringIO()):  # it announces its version on import
             import evogym
-            import evogym.envs  # noqa: F401 - registers the tasks with Gymnasium
+            import evogym.envs
     except ImportError as exc:
         raise ConfigError(
             f"Evolution Gym is not installed ({exc}); build it with plugins/gdabench-evogym/install.sh"
@@ -75,7 +75,10 @@ class EvogymTask(ControlledEnvironment):
 
     def make_env(self, body: Body, **kwargs: Any) -> gymnasium.Env:
         env = gymnasium.make(self.task, body=body.voxels.astype(float), **kwargs)
-        index = env.unwrapped.get_actuator_indices("robot")
+        raw: Any = env.unwrapped  # an evogym EvoGymBase, untyped
+        index = raw.get_actuator_indices("robot")
         width = body.shape[1]
-        env.unwrapped.actuator_voxels = np.array([(i // width, i % width, body.voxels.flat[i]) for i in index], dtype=np.int64)
+        raw.actuator_voxels = np.array(
+            [(i // width, i % width, body.voxels.flat[i]) for i in index], dtype=np.int64
+        )
         return env

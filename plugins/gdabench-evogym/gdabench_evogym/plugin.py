@@ -1,7 +1,6 @@
 """Hooks: one gdabench environment ``evogym/<task id>`` per Evolution Gym task."""
 
 import gdabench
-
 from gdabench.envs.tasks.catalog import CATALOG
 
 from .tasks import TASKS

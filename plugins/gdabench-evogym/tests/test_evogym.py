@@ -14,13 +14,16 @@ import numpy as np
 import pytest
 
 with contextlib.redirect_stdout(io.StringIO()):
-    evogym = pytest.importorskip("evogym", reason="Evolution Gym is not installed: build it with plugins/gdabench-evogym/install.sh")
+    evogym = pytest.importorskip(
+        "evogym", reason="Evolution Gym is not installed: build it with plugins/gdabench-evogym/install.sh"
+    )
 
-import gdabench  # noqa: E402
-from gdabench.body import Body, is_valid  # noqa: E402
-from gdabench.testing import check_environment  # noqa: E402
-from gdabench_evogym.env import EvogymTask  # noqa: E402
-from gdabench_evogym.tasks import TASKS  # noqa: E402
+from gdabench_evogym.env import EvogymTask
+from gdabench_evogym.tasks import TASKS
+
+import gdabench
+from gdabench.body import Body, is_valid
+from gdabench.testing import check_environment
 
 WALKER_BODY = Body.from_text("33333/31113/31013/31013/31013")
 
@@ -53,7 +56,11 @@ def test_open_loop_drives_the_actuators_deterministically():
     check_environment(EvogymTask, controller=gdabench.make_controller("open-loop", trials=1), bodies=3)
     body = Body.from_text("00000/33333/33333/30003/30003")
     moving = EvogymTask().evaluate(body, seed=0, controller=gdabench.make_controller("open-loop", trials=1)).reward
-    still = EvogymTask().evaluate(body, seed=0, controller=gdabench.make_controller("open-loop", trials=1, amplitude=0.0, center=1.0)).reward
+    still = (
+        EvogymTask()
+        .evaluate(body, seed=0, controller=gdabench.make_controller("open-loop", trials=1, amplitude=0.0, center=1.0))
+        .reward
+    )
     assert abs(still) < 0.2 < abs(moving)  # the muscles, found through actuator_voxels, move the body
 
 
@@ -61,7 +68,8 @@ def test_compare_end_to_end_with_its_report_on_a_headless_machine(tmp_path):
     """Without a display Evolution Gym's renderer would crash the process: the report skips the animation."""
     out = tmp_path / "run"
     cmd = [sys.executable, "-m", "gdabench", "compare", "--designers", "ga,random", "--env", "evogym/Walker-v0",
-           "--controller", "open-loop", "-C", "trials=1", "--budget", "30", "--seeds", "0", "--out", str(out), "-q"]  # fmt: skip
+           "--controller", "open-loop", "-C", "trials=1", "--budget", "30", "--seeds", "0",
+           "--out", str(out), "-q"]  # fmt: skip
     headless = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
     result = subprocess.run(cmd, capture_output=True, text=True, env=headless)
     assert result.returncode == 0, result.stderr
@@ -86,14 +94,28 @@ def test_walker_fidelity_benchmark_compares_both_simulators(tmp_path):
     root = os.path.join(os.path.dirname(__file__), "..", "..", "..")
     script = os.path.join(root, "benchmarks", "walker_fidelity.py")
     cache = tmp_path / "evogym.jsonl"
-    args = [sys.executable, script, "--random-bodies", "2", "--steps", "60", "--gaits", "wave20,random", "--evogym-cache", str(cache)]
-    out = subprocess.run([*args, "--json", str(tmp_path / "rows.json")], capture_output=True, text=True, check=True).stdout
+    args = [
+        sys.executable,
+        script,
+        "--random-bodies",
+        "2",
+        "--steps",
+        "60",
+        "--gaits",
+        "wave20,random",
+        "--evogym-cache",
+        str(cache),
+    ]
+    out = subprocess.run(
+        [*args, "--json", str(tmp_path / "rows.json")], capture_output=True, text=True, check=True
+    ).stdout
     assert "calibration: 13 bodies, 26 episodes" in out and "held-out: 13 bodies, 26 episodes" in out
     assert "return Spearman" in out and "ratio" in out  # both simulators timed side by side
     rows = json.loads((tmp_path / "rows.json").read_text())
     assert len(rows) == 52 and all(len(r["evogym"]["trace"]) == 7 for r in rows)
     # the same body set again, Evolution Gym's episodes from the cache: identical figures
     again = subprocess.run(args, capture_output=True, text=True, check=True).stdout
+
     def tables(text: str) -> list[str]:  # Evolution Gym's C++ code may print its version first
         lines = text.splitlines()
         return lines[next(i for i, line in enumerate(lines) if line.startswith("calibration")) : -1]

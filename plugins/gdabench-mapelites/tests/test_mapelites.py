@@ -1,12 +1,11 @@
 """The plugin's own tests: gdabench's conformance checks plus MAP-Elites behaviour."""
 
-import numpy as np
 import pytest
+from gdabench_mapelites import MapElites
 
 from gdabench import ConfigError, make_designer
 from gdabench.body import Body
 from gdabench.testing import check_designer
-from gdabench_mapelites import MapElites
 
 
 def test_conforms_to_the_designer_contract():

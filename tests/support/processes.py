@@ -22,12 +22,21 @@ def default_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-def cli(*args: str, site: Path, env: dict | None = None, background: bool = False, timeout: float = 300) -> subprocess.Popen | subprocess.CompletedProcess:
+def cli(
+    *args: str, site: Path, env: dict | None = None, background: bool = False, timeout: float = 300
+) -> subprocess.Popen | subprocess.CompletedProcess:
     """``python -m gdabench *args`` with the faulty plugin importable (``env`` adds variables)."""
-    environ = dict(os.environ, COLUMNS="200", PYTHONPATH=os.pathsep.join(filter(None, [str(site), os.environ.get("PYTHONPATH")])), **(env or {}))
+    environ = dict(
+        os.environ,
+        COLUMNS="200",
+        PYTHONPATH=os.pathsep.join(filter(None, [str(site), os.environ.get("PYTHONPATH")])),
+        **(env or {}),
+    )
     command = [sys.executable, "-m", "gdabench", *args]
     if background:
-        return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environ, preexec_fn=default_sigint)
+        return subprocess.Popen(
+            command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environ, preexec_fn=default_sigint
+        )
     return subprocess.run(command, capture_output=True, text=True, env=environ, timeout=timeout)
 
 

@@ -13,8 +13,9 @@ import json
 from dataclasses import asdict, dataclass, field
 from typing import Any, Mapping, Sequence
 
-from .body import DEFAULT_SHAPE
-from .errors import ConfigError
+from ..body import DEFAULT_SHAPE
+from ..designer import DEFAULT_BUDGET, DEFAULT_POPULATION
+from ..errors import ConfigError
 
 #: bounds that keep a run's memory and time finite (documented in the docs' "Limits")
 MAX_POPULATION = 10_000
@@ -25,8 +26,6 @@ MAX_SEEDS = 10_000
 
 #: what an experiment is where neither the command line, gdabench.compare nor an experiment file says
 DEFAULT_ENV = "simple"
-DEFAULT_POPULATION = 25
-DEFAULT_BUDGET = 1_000
 DEFAULT_SEEDS = (0,)
 
 
@@ -188,7 +187,7 @@ def parse_seeds(text: str | Sequence[int] | None, repetitions: int | None = None
 
 
 #: how each trial's final best bodies are scored again where rewards depend on a training seed (on by default
-#: with a controller: ``gdabench.experiment_build``); at most this many bodies and seeds each
+#: with a controller: ``gdabench.experiment.build``); at most this many bodies and seeds each
 REEVALUATE_TOP, REEVALUATE_SEEDS, MAX_REEVALUATE = 3, 5, 100
 
 

@@ -1,7 +1,7 @@
 """Remake ``tests/slow_tests.txt`` from a pytest run's ``--durations=0`` report.
 
     python -m pytest -n 2 --durations=0 -q | tee durations.txt
-    python tests/slow_tests.py durations.txt [--over 5]
+    python tests/support/slow_tests.py durations.txt [--over 5]
 
 A test is slow when its setup, call and teardown took more than ``--over`` seconds together in that run.
 """
@@ -27,8 +27,10 @@ def main() -> None:
         if match:
             seconds[match.group(3)] += float(match.group(1))
     slow = sorted((s, node) for node, s in seconds.items() if s > args.over)
-    header = [f"# tests over {args.over:g} s in {args.report.name} (seconds, node id); remade by tests/slow_tests.py"]
-    out = Path(__file__).with_name("slow_tests.txt")
+    header = [
+        f"# tests over {args.over:g} s in {args.report.name} (seconds, node id); remade by tests/support/slow_tests.py"
+    ]
+    out = Path(__file__).resolve().parents[1] / "slow_tests.txt"
     out.write_text("\n".join(header + [f"{s:8.1f} {node}" for s, node in reversed(slow)]) + "\n")
     print(f"{len(slow)} slow tests, {sum(s for s, _ in slow):.0f} s of {sum(seconds.values()):.0f} s; wrote {out}")
 

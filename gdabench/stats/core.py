@@ -177,3 +177,8 @@ def _designer_order(evaluations: pd.DataFrame) -> Callable[[pd.Series], pd.Serie
         return column.map(order) if column.name == "designer" else column
 
     return key
+
+
+def with_run_id(frame: pd.DataFrame) -> pd.DataFrame:
+    """The table with ``run_id`` as text ('' for tables written before it existed)."""
+    return frame.assign(run_id=frame["run_id"].astype(str) if "run_id" in frame.columns else "")

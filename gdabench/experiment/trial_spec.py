@@ -1,7 +1,7 @@
 """A trial as resolved: what a worker needs to run one designer on one environment with one seed.
 
 Plain data (and the one function that builds a plugin object from its recipe), apart from
-:mod:`gdabench.running.plan`, which resolves an experiment through the plugin registry: the hook
+:mod:`gdabench.experiment.plan`, which resolves an experiment through the plugin registry: the hook
 specifications and the trial name these types without importing the registry.
 """
 

@@ -14,7 +14,11 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Mapping, Sequence
 
-from .body import DEFAULT_SHAPE, parse_shape
+from ..body import DEFAULT_SHAPE, parse_shape
+from ..errors import ConfigError, RunDirectoryError
+from ..execution.options import Execution
+from ..plugins import Registry, registry
+from ..results import RunDirectory
 from .config import (
     DEFAULT_BUDGET,
     DEFAULT_ENV,
@@ -28,11 +32,8 @@ from .config import (
     parse_params,
     parse_seeds,
 )
-from .errors import ConfigError
-from .execution.options import Execution
-from .experiment_file import EXECUTION_KEYS, ExperimentFile, load
-from .plugins import Registry, registry
-from .results import RunDirectory
+from .file import EXECUTION_KEYS, ExperimentFile, load
+from .plan import Plan
 
 #: each option's value where neither the user nor the experiment file gives one
 DEFAULTS: Mapping[str, Any] = MappingProxyType({
@@ -59,11 +60,17 @@ Choices = str | PluginChoice | Sequence[str | PluginChoice]
 
 @dataclass(frozen=True)
 class RunSetup:
-    """What to run, how, and into which directory."""
+    """What to run, how, and into which directory: resolved once, before anything runs, and passed down."""
 
     experiment: Experiment
     execution: Execution
     out: Path
+    #: the experiment resolved through the registry; None only for a complete run resumed unchanged
+    plan: Plan | None
+    #: the run directory a resume continues (opened and checked here, once); None for a new run
+    resumed: RunDirectory | None = None
+    #: the seeds a resume adds to the run's own
+    added_seeds: tuple[int, ...] = ()
 
 
 def build_run(given: Mapping[str, Any], *, reg: Registry | None = None) -> RunSetup:
@@ -80,9 +87,57 @@ def build_run(given: Mapping[str, Any], *, reg: Registry | None = None) -> RunSe
     execution = _execution(given, file)
     if given.get("resume") is not None:
         run = RunDirectory.open(given["resume"])
-        return RunSetup(_resumed(stored_experiment(run), given), execution, Path(given["resume"]))
+        stored = stored_experiment(run)
+        return _resume(run, Path(given["resume"]), stored, _resumed(stored, given), execution, reg)
     experiment = _experiment(given, file, reg)
-    return RunSetup(experiment, execution, Path(given.get("out") or file.out or default_out_dir(experiment)))
+    out = Path(given.get("out") or file.out or default_out_dir(experiment))
+    return RunSetup(experiment, execution, out, Plan.resolve(experiment, reg))
+
+
+def setup_run(
+    experiment: Experiment | None,
+    out: str | Path | None = None,
+    *,
+    resume: bool = False,
+    execution: Execution | None = None,
+    reg: Registry | None = None,
+) -> RunSetup:
+    """The setup of running ``experiment`` into ``out``, for a caller that holds an :class:`Experiment`.
+
+    A resume takes the experiment from the directory; ``experiment`` may only add seeds to it.
+    """
+    execution = execution or Execution()
+    if resume:
+        if out is None:
+            raise RunDirectoryError("resume needs the run directory")
+        run = RunDirectory.open(out)
+        stored = stored_experiment(run)
+        return _resume(run, Path(out), stored, with_added_seeds(stored, experiment), execution, reg)
+    if experiment is None:
+        raise ConfigError("compare() needs an experiment unless it resumes a run")
+    out = Path(out) if out is not None else default_out_dir(experiment)
+    return RunSetup(experiment, execution, out, Plan.resolve(experiment, reg))
+
+
+def _resume(
+    run: RunDirectory, out: Path, stored: Experiment, experiment: Experiment, execution: Execution,
+    reg: Registry | None,
+) -> RunSetup:
+    """The setup that continues ``run`` with ``experiment`` (``stored`` with any seeds added): its plan checked
+    against the versions the run recorded, its timeout the run's unless one is given."""
+    meta = run.meta
+    added = experiment.seeds[len(stored.seeds):]
+    if meta.get("status") == "complete" and not added:
+        if not run.evaluations_path.exists():
+            raise RunDirectoryError(
+                f"run {run.path} is complete but its table {run.evaluations_path} is missing; restore it"
+            )
+        return RunSetup(experiment, execution, out, None, run)
+    if execution.timeout is None and (meta.get("execution") or {}).get("timeout"):
+        execution = Execution(**{**execution.to_json(), "timeout": meta["execution"]["timeout"]})
+    plan = Plan.resolve(experiment, reg)
+    plan.check_versions(run.path, meta, "resuming")
+    return RunSetup(experiment, execution, out, plan, run, tuple(added))
 
 
 def stored_experiment(run: RunDirectory) -> Experiment:
@@ -194,7 +249,7 @@ def _primary_seeds(primary: Primary | None) -> tuple[int, ...] | None:
     """Seeds 0..n-1, n from the power analysis for the primary comparison's smallest effect of interest."""
     if primary is None:
         return None
-    from .report.power import seeds_needed
+    from ..stats.power import seeds_needed  # scipy: only for a primary comparison without seeds
 
     needed = seeds_needed(primary.effect, alpha=primary.alpha, target_power=primary.power)
     if needed is None:
@@ -247,3 +302,41 @@ def _resumed(stored: Experiment, given: Mapping[str, Any]) -> Experiment:
         )
     seeds = _given_seeds(given)
     return stored if seeds is None else with_added_seeds(stored, replace(stored, seeds=seeds))
+
+
+def significance_warnings(experiment: Experiment, alpha: float | None = None) -> list[str]:
+    """What an experiment's seeds cannot show, said before it runs: a primary comparison with fewer seeds than
+    any significant result needs (or than its power analysis asks for), or, without one, pairs of designers
+    that no outcome could make significant after Holm's correction (at ``alpha``, by default 0.05)."""
+    from ..stats.power import ALPHA, minimum_seeds, seeds_needed  # scipy: only once a run is asked for
+
+    alpha = ALPHA if alpha is None else alpha
+    n, designers = len(experiment.seeds), len(experiment.designers)
+    out = []
+    primary = experiment.primary
+    if primary is not None:
+        fewest = minimum_seeds(primary.alpha)
+        needed = seeds_needed(primary.effect, alpha=primary.alpha, target_power=primary.power)
+        name = f"the primary comparison ({primary.a} against {primary.b})"
+        if n < fewest:
+            out.append(
+                f"{name} cannot be significant with {n} seeds: the exact signed-rank test's smallest two-sided p "
+                f"is 2/2^{n} = {2 / 2**n:.3g}, above {primary.alpha:g}; at least {fewest} seeds whose two runs differ "
+                f"are needed, and about {needed} to detect A12 = {primary.effect:g} {primary.power:.0%} of the time"
+            )
+        elif needed is None or n < needed:
+            out.append(
+                f"{name} has {n} seeds; about {needed or 'more than 1000'} detect its smallest effect of interest "
+                f"(A12 = {primary.effect:g}) {primary.power:.0%} of the time at {primary.alpha:g}"
+            )
+    pairs = designers * (designers - 1) // 2 - (primary is not None)
+    if pairs >= 1:
+        fewest = minimum_seeds(alpha / pairs)
+        if n < fewest:
+            which = "no other pair of designers (exploratory)" if primary is not None else "no pair of designers"
+            out.append(
+                f"{which} can differ significantly with {n} seeds: after Holm's correction over {pairs} pair(s) at "
+                f"{alpha:g} the exact signed-rank test needs at least {fewest} seeds"
+                + ("" if primary is not None else f" ({minimum_seeds(alpha)} for one primary comparison)")
+            )
+    return out

@@ -23,13 +23,9 @@ from __future__ import annotations
 
 import math
 from functools import lru_cache
-from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.stats import norm
-
-if TYPE_CHECKING:
-    from ..config import Experiment
 
 ALPHA = 0.05
 POWER = 0.8
@@ -124,37 +120,3 @@ def seeds_needed(
             lo = mid + 1
     return lo
 
-
-def significance_warnings(experiment: Experiment, alpha: float = ALPHA) -> list[str]:
-    """What an experiment's seeds cannot show, said before it runs: a primary comparison with fewer seeds than
-    any significant result needs (or than its power analysis asks for), or, without one, pairs of designers
-    that no outcome could make significant after Holm's correction."""
-    n, designers = len(experiment.seeds), len(experiment.designers)
-    out = []
-    primary = experiment.primary
-    if primary is not None:
-        fewest = minimum_seeds(primary.alpha)
-        needed = seeds_needed(primary.effect, alpha=primary.alpha, target_power=primary.power)
-        name = f"the primary comparison ({primary.a} against {primary.b})"
-        if n < fewest:
-            out.append(
-                f"{name} cannot be significant with {n} seeds: the exact signed-rank test's smallest two-sided p "
-                f"is 2/2^{n} = {2 / 2**n:.3g}, above {primary.alpha:g}; at least {fewest} seeds whose two runs differ "
-                f"are needed, and about {needed} to detect A12 = {primary.effect:g} {primary.power:.0%} of the time"
-            )
-        elif needed is None or n < needed:
-            out.append(
-                f"{name} has {n} seeds; about {needed or 'more than 1000'} detect its smallest effect of interest "
-                f"(A12 = {primary.effect:g}) {primary.power:.0%} of the time at {primary.alpha:g}"
-            )
-    pairs = designers * (designers - 1) // 2 - (primary is not None)
-    if pairs >= 1:
-        fewest = minimum_seeds(alpha / pairs)
-        if n < fewest:
-            which = "no other pair of designers (exploratory)" if primary is not None else "no pair of designers"
-            out.append(
-                f"{which} can differ significantly with {n} seeds: after Holm's correction over {pairs} pair(s) at "
-                f"{alpha:g} the exact signed-rank test needs at least {fewest} seeds"
-                + ("" if primary is not None else f" ({minimum_seeds(alpha)} for one primary comparison)")
-            )
-    return out

@@ -17,7 +17,7 @@ from typing import Any, Mapping, Union
 import pandas as pd
 
 from ..statuses import COUNTED, OK
-from .stats import (
+from .core import (
     CONFIDENCE,
     best_so_far_curve,
     censored,

@@ -43,9 +43,9 @@ from typing import Any, Mapping
 
 import tomllib
 
-from .body import parse_shape
+from ..body import parse_shape
+from ..errors import ConfigError, GdabenchError
 from .config import PluginChoice, Primary, Reevaluation, parse_seeds
-from .errors import ConfigError, GdabenchError
 
 KEYS = ("designers", "env", "envs", "suite", "controller", "shape", "population", "budget", "seeds", "repetitions",
         "stop_at_optimum", "reevaluate", "primary", "out", "execution")  # fmt: skip

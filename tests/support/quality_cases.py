@@ -12,8 +12,8 @@ expectations.
 Regenerate expectations only deliberately, after a change that is *meant* to alter results
 (and say why in the commit message)::
 
-    python tests/quality_cases.py            # every case
-    python tests/quality_cases.py ga cppn    # only these designers
+    python tests/support/quality_cases.py            # every case
+    python tests/support/quality_cases.py ga cppn    # only these designers
 
 then review ``git diff tests/expectations`` before committing.
 """
@@ -31,9 +31,9 @@ import pandas as pd
 
 from gdabench import Experiment, PluginChoice
 from gdabench.running.runner import compare
-from gdabench.report.stats import best_so_far_curve
+from gdabench.stats.core import best_so_far_curve
 
-EXPECTATIONS = Path(__file__).parent / "expectations"
+EXPECTATIONS = Path(__file__).resolve().parents[1] / "expectations"
 
 
 @dataclass(frozen=True)

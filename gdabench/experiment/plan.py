@@ -12,17 +12,17 @@ import json
 from pathlib import Path
 from typing import Any, Mapping, cast
 
-from ..config import Experiment, PluginChoice
 from ..environment import Controller, Environment
 from ..errors import ConfigError, PluginError
 from ..execution.cache import recipe_identity
 from ..execution.evaluation import adopt, instance
-from ..execution.spawning import from_script
 from ..names import file_name
 from ..params import check_params
 from ..plugins import Registry, registry
 from ..results import RunDirectory
+from ..spawning import from_script
 from ..specs import Factory
+from .config import Experiment, PluginChoice
 from .trial_spec import DesignerRecipe, EnvRecipe, TrialSpec, build_plugin
 
 #: keyword arguments the harness itself passes to designer and environment factories
