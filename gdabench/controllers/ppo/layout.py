@@ -4,7 +4,8 @@
 their observations and actions, so rows are matched by what they mean, not by their index:
 
 * an **observation row** of a point mass (Evolution Gym's ``get_relative_pos_obs``: every x, then every y)
-  is keyed by the lattice corner the point starts at (its voxel position), and its axis; the task's other
+  is keyed by its axis and the lattice corner the point starts at (its voxel position; where two voxels
+  touch only at a corner, each has its own point there, told apart by their order); the task's other
   rows (centre-of-mass velocity, orientation, terrain ahead...) by their place before or after the points;
 * an **action row** is keyed by the voxel of its actuator.
 
@@ -84,9 +85,16 @@ def _voxel_layout(batch: Any, n_obs: int, n_act: int) -> Layout:
     points = len(corners)
     if start is None or width != n_obs:
         return indexed(n_obs, n_act)
+    # two voxels that touch only at a corner have a point each there: the second is ("x", x, y, 1)
+    seen: dict[tuple[int, int], int] = {}
+    places = []
+    for x, y in corners:
+        place = (int(x), int(y))
+        places.append((*place, seen.get(place, 0)))
+        seen[place] = seen.get(place, 0) + 1
     obs: list[Key] = [("before", i) for i in range(start)]
-    obs += [("x", int(x), int(y)) for x, y in corners]
-    obs += [("y", int(x), int(y)) for x, y in corners]
+    obs += [("x", *p) for p in places]
+    obs += [("y", *p) for p in places]
     obs += [("after", i) for i in range(n_obs - start - 2 * points)]
     cells = robot.boxel_cell[robot.actuators]  # (x, y) in the body's grid, y = 0 the top row
     act = tuple(("voxel", int(y), int(x)) for x, y in cells)
