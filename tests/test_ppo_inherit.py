@@ -21,6 +21,7 @@ from gdabench.designers.cppn.designer import CppnNeat
 from gdabench.designers.ga import GeneticAlgorithm
 from gdabench.errors import ConfigError
 from gdabench.results import RunDirectory
+from gdabench.torch_runtime import torch_threads
 from processes import cli, table
 
 PARENT = "00000/44444/44444/40004/40004"
@@ -177,17 +178,44 @@ def test_gda_names_the_survivors_nearest_by_voxel_distance_first():
         assert distances == sorted(distances) and distances[0] == min(hamming(child, s.body) for s in gda.survivors)
 
 
-ARGS = ["compare", "-d", "ga", "--env", "walker", "--controller", "ppo", "-C", "timesteps=128", "-C", "init=parent",
-        "--budget", "6", "--population", "3", "--jobs", "1", "-q", "--no-report"]
+def test_a_child_learns_the_same_from_its_parent_in_memory_and_read_back_from_disk(tmp_path):
+    """In memory in the process that trained the parent, or from the run directory in a new one (a resume),
+    whatever torch's thread count outside the training."""
+    import dataclasses
+
+    from gdabench.envs.voxel.env import VoxelTask
+
+    env, parent, child = VoxelTask(), as_body(PARENT), as_body(CHILD)
+    ppo = PPO(timesteps=128, init="parent")
+    [trained] = ppo.evaluate_bodies(env.bodies([parent]), seeds=[1], workdirs=[tmp_path / parent.hash])
+    bodies = dataclasses.replace(env.bodies([child]), parents=[(tmp_path / "missing", tmp_path / parent.hash)])
+    with torch_threads(2):
+        [in_memory] = ppo.evaluate_bodies(bodies, seeds=[2], workdirs=[tmp_path / "one"])
+    [from_disk] = PPO(timesteps=128, init="parent").evaluate_bodies(bodies, seeds=[2], workdirs=[tmp_path / "two"])
+    [scratch] = PPO(timesteps=128).evaluate_bodies(env.bodies([child]), seeds=[2], workdirs=[None])
+    assert in_memory.info["ppo_inherited"] == from_disk.info["ppo_inherited"] == 1
+    assert in_memory.reward == from_disk.reward != scratch.reward
+    assert trained.info["ppo_inherited"] == 0
+
+
+CONTROLLER = "ppo[timesteps=128,init=parent]"
+ARGS = ["compare", "-d", "ga", "--env", "walker", "--controller", CONTROLLER, "--budget", "6", "--population", "3",
+        "--jobs", "1", "-q", "--no-report"]
 
 
 def test_inheriting_runs_are_reproducible_and_resume_after_a_kill_with_the_same_numbers(tmp_path):
     """Generation 0 trains from scratch, each later child from its parent (in memory in the uninterrupted run,
-    read back from the run directory after the kill); the killed and resumed run equals the uninterrupted one."""
+    read back from the run directory after the kill); the uninterrupted run comes from an experiment file that
+    selects the controller, the killed and resumed one from the command line: both give the same table."""
+    experiment = tmp_path / "inherit.toml"
+    experiment.write_text(f'designers = ["ga"]\nenv = "walker"\ncontroller = "{CONTROLLER}"\npopulation = 3\n'
+                          'budget = 6\nseeds = "0"\n')
     whole = tmp_path / "whole"
-    done = cli(*ARGS, "--out", str(whole), site=tmp_path)
+    done = cli("compare", "--config", str(experiment), "--jobs", "1", "-q", "--no-report", "--out", str(whole),
+               site=tmp_path)
     assert done.returncode == 0, done.stderr
     reference = table(whole)
+    assert reference["controller"].unique().tolist() == [CONTROLLER]
     assert reference["ppo_inherited"].tolist() == [0, 0, 0, 1, 1, 1]
     killed = tmp_path / "killed"
     dead = cli(*ARGS, "--out", str(killed), site=tmp_path, env={"GDABENCH_FAULT": "outcome-stored:5"})

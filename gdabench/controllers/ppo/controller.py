@@ -178,7 +178,8 @@ class PPO(Controller):
             n_obs, n_act = box_dims(env)
         finally:
             env.close()
-        with torch.random.fork_rng(devices=[]):
+        # as train() makes them: its threads (orthogonal initialisation's QR rounds by thread count), its RNG kept
+        with torch.random.fork_rng(devices=[]), deterministic_torch(self.config.threads):
             return layout, initial_networks(seed, n_obs, n_act, self.config.hidden)
 
     def _train(
