@@ -66,13 +66,11 @@ def layout_of(env: Any) -> Layout:
     return _voxel_layout(batch, n_obs, n_act)
 
 
-def _voxel_layout(batch: Any, n_obs: int, n_act: int) -> Layout:
-    """A voxel-engine environment's layout: where its task puts the robot's relative positions among the
-    observation's parts, and which voxel each actuator drives."""
+def point_block(batch: Any) -> tuple[int | None, int]:
+    """Where a voxel-engine environment's observation holds the robot's relative point positions (the first
+    row, None if its task has no such part) and the observation's length: found among its task's parts."""
     from ...envs.tasks import sense
 
-    robot = batch.tables.robots[0]
-    corners = np.rint(robot.pos / CELL).astype(np.int64)
     frame = batch.frame()
     mine = sense.robot_relative(frame)[0]
     start, width = None, 0
@@ -82,6 +80,15 @@ def _voxel_layout(batch: Any, n_obs: int, n_act: int) -> Layout:
         if start is None and isinstance(part, tuple) and array.shape == mine.shape and np.array_equal(array, mine):
             start = width
         width += used
+    return start, width
+
+
+def _voxel_layout(batch: Any, n_obs: int, n_act: int) -> Layout:
+    """A voxel-engine environment's layout: where its task puts the robot's relative positions among the
+    observation's parts, and which voxel each actuator drives."""
+    robot = batch.tables.robots[0]
+    corners = np.rint(robot.pos / CELL).astype(np.int64)
+    start, width = point_block(batch)
     points = len(corners)
     if start is None or width != n_obs:
         return indexed(n_obs, n_act)
