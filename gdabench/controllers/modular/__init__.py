@@ -1,5 +1,6 @@
-"""A modular (per-voxel) view of a body's observation, for one policy shared by many bodies.
+"""One policy for many bodies: the parts of the ``modular-ppo`` controller of issue 56 (not registered yet).
 
-Work in progress towards the ``modular-ppo`` controller of issue 56 (not registered yet): ``observation``
-builds ModularEvoGym's per-voxel observations from the voxel engine's flat ones.
+Modules: ``observation`` (ModularEvoGym's per-voxel observations from the voxel engine's flat ones), ``policy``
+(a shared MLP over voxel tokens), ``train`` (PPO on a generation's pooled experience).  What is missing before
+it is a controller: docs/controllers/modular.md.
 """

@@ -57,14 +57,13 @@ def train_pooled(
         batch = make_batch(config.n_envs)
         try:
             batch.seed(seeds)
-            width = max(batch.obs_sizes)
-            nets = SharedBatch(policy, views, width)
+            obs = batch.reset()
+            nets = SharedBatch(policy, views, obs.shape[1])  # the batch's width: padded as the environment pads
             optimizer = torch.optim.Adam(policy.parameters(), lr=config.learning_rate, betas=ADAM_BETAS, eps=ADAM_EPS)
             sampling = [streams(s)[0] for s in seeds]
             order = torch.Generator().manual_seed(int(seed))
             result = PooledResult([[] for _ in seeds], [-1] * len(seeds), [], policy, 0)
             interval, steps = config.evaluation_interval, 0
-            obs = batch.reset()
             for rollout_index in range(config.rollouts):
                 if config.lr_schedule == "linear":
                     for group in optimizer.param_groups:
