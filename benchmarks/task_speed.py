@@ -5,6 +5,9 @@ seeded, 5x5, those the task can place) stepped as one :class:`~gdabench.envs.vox
 thread (observations and rewards included: the env steps/s a user gets), and Evolution Gym 2.0's own
 Gymnasium environment on the same bodies, one at a time.  Both play the same open-loop sinusoid; an episode
 that ends is reset.  The two are timed in turn, ``--repeats`` times each, and the medians are compared.
+Both are timed in the process's CPU time (one thread each: Numba's set to one, Evolution Gym's simulator
+single-threaded), so that other work on a shared machine slows neither's figure; ``--clock wall`` times
+wall-clock seconds instead, for a quiet machine.
 Memory per environment: the batch's state and observation arrays, plus its tables' share.
 
 Run it in the Evolution Gym plugin's venv (numba and Evolution Gym together)::
@@ -51,6 +54,9 @@ def task_bodies(task: str, count: int, seed: int) -> list[gdabench.Body]:
     return out
 
 
+CLOCK = time.process_time  # --clock: what both simulators are timed by
+
+
 def engine_rate(task: str, bodies: list[gdabench.Body], seconds: float) -> tuple[float, float]:
     """(env steps/s, bytes per environment) of one batch of ``bodies``, one environment each."""
     from gdabench.envs.voxel.batch import TaskBatch
@@ -61,13 +67,13 @@ def engine_rate(task: str, bodies: list[gdabench.Body], seconds: float) -> tuple
     width = batch.tables.max_actuators
     n = batch.num_envs
     batch.step(gait(0, n, width))  # compile / warm
-    steps, start = 0, time.perf_counter()
-    while time.perf_counter() - start < seconds or steps < 3:
+    steps, start = 0, CLOCK()
+    while CLOCK() - start < seconds or steps < 3:
         _, _, terminated, _ = batch.step(gait(steps, n, width))
         if terminated.any():
             batch.reset(terminated)
         steps += 1
-    rate = n * steps / (time.perf_counter() - start)
+    rate = n * steps / (CLOCK() - start)
     arrays = (batch.state.pos, batch.state.vel, batch.state.vtrue, batch.init, batch._obs)
     per_env = sum(a.nbytes for a in arrays) / n
     per_env += sum(v.nbytes for v in vars(batch.tables).values() if isinstance(v, np.ndarray)) / n
@@ -86,13 +92,13 @@ def evogym_rate(task: str, bodies: list[gdabench.Body], seconds: float) -> float
             env = gymnasium.make(task, body=body.voxels.astype(float))
             env.reset(seed=i)
             n = env.action_space.shape[0]
-            start = time.perf_counter()
+            start = CLOCK()
             for t in range(100):
                 _, _, done, _, _ = env.step(gait(t, 1, n)[0].copy())
                 steps += 1
                 if done:
                     env.reset()
-            spent += time.perf_counter() - start
+            spent += CLOCK() - start
             env.close()
         if spent > seconds:
             break
@@ -106,11 +112,14 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=2.0, help="per timed run")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--clock", choices=["cpu", "wall"], default="cpu", help="what both are timed by")
     parser.add_argument("--out", type=Path, default=None, help="also write the rows as JSON here")
     args = parser.parse_args()
+    global CLOCK
+    CLOCK = time.process_time if args.clock == "cpu" else time.perf_counter
     tasks = [t for t in args.tasks.split(",") if t] or list(CATALOG)
     numba.set_num_threads(1)
-    print(f"task speed, one core; numba {numba.__version__}, load {os.getloadavg()[0]:.1f}, "
+    print(f"task speed, one core, {args.clock} time; numba {numba.__version__}, load {os.getloadavg()[0]:.1f}, "
           f"{platform.processor() or platform.machine()}")
     print("| task | grade | voxel env steps/s (B = %d) | Evolution Gym env steps/s | ratio | KB per env |" % args.batch)
     print("|---|---|--:|--:|--:|--:|")
@@ -136,7 +145,7 @@ def main() -> None:
               f"| {memory / 1e3:.0f} |", flush=True)
         if args.out:
             args.out.write_text(json.dumps({"command": "benchmarks/task_speed.py", "batch": args.batch,
-                                            "seconds": args.seconds, "repeats": args.repeats,
+                                            "seconds": args.seconds, "repeats": args.repeats, "clock": args.clock,
                                             "load_at_start": os.getloadavg()[0], "rows": rows}, indent=1) + "\n")
 
 

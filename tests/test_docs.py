@@ -371,3 +371,50 @@ def test_every_output_a_page_links_to_is_committed_and_published():
             path = (page.parent / target).resolve()
             assert path.is_file(), f"{page.relative_to(ROOT)} links to {target}, which is not committed"
             assert not spec.match_file("/" + str(path.relative_to(docs))), f"mkdocs leaves out {target}"
+
+
+def test_the_evogym_task_page_shows_the_committed_task_outputs():
+    """The page of Evolution Gym's tasks is generated from benchmarks/task_*.py's committed outputs: a row per task
+    whose parity steps, held-out Spearman and sign agreement, unstable bodies and speed ratio are recomputed here
+    from the per-body and per-episode figures, and the tasks it says miss a goal are exactly those."""
+    import pandas as pd
+    from scipy.stats import spearmanr
+
+    from gdabench.envs.tasks import CATALOG
+
+    hooks = docs_hooks()
+    page = (ROOT / "docs" / "benchmarks" / "evogym-tasks.md").read_text()
+    for name in ("summary", "misses", "parity", "control"):
+        assert f"<!-- gdabench:evogym-task-{name} -->" in page
+    out = ROOT / hooks.TASK_OUTPUT
+    read = lambda name, key="tasks": {r["task"]: r for r in json.loads((out / name).read_text())[key]}  # noqa: E731
+    parity, speed = read("task-parity.json"), read("task-speed.json", "rows")
+    stability = read("task-stability.json") if (out / "task-stability.json").exists() else {}
+    episodes = pd.read_csv(out / "task-fidelity.csv")
+    rows = {cells[1].strip("` "): [c.strip(" *") for c in cells[2:-1]]
+            for cells in (line.split("|") for line in hooks.evogym_task_summary(ROOT).splitlines()[2:])}
+    assert list(rows) == list(CATALOG)
+    low = {"Spearman": set(), "sign agreement": set(), "10x speed": set()}
+    for task, (_, steps, rho_cell, sign_cell, unstable, _, _, ratio, *_) in rows.items():
+        firsts = [b["first_over"]["1e-6"] for b in parity[task]["per_body"] if b["first_over"]["1e-6"] is not None]
+        assert steps == (str(min(firsts) - 1) if firsts else "all")
+        held = episodes[(episodes["task"] == task) & (episodes["part"] == "held-out")]
+        rho = spearmanr(held["return_voxel"], held["return_evogym"]).statistic
+        sign = (held["return_voxel"].map(lambda v: (v > 0) - (v < 0)) == held["return_evogym"].map(
+            lambda v: (v > 0) - (v < 0))).mean()
+        assert (rho_cell, sign_cell) == (f"{rho:.3f}", f"{100 * sign:.1f}%"), task
+        if task in stability:
+            s = stability[task]
+            assert unstable == f"{len(s['unstable_bodies_voxel'])} / {len(s['unstable_bodies_evogym'])}"
+        else:
+            assert unstable == "not run"
+        assert ratio == f"{speed[task]['voxel'] / speed[task]['evogym']:.1f}x"
+        for goal, missed in (("Spearman", rho < 0.95), ("sign agreement", sign < 0.95),
+                             ("10x speed", speed[task]["voxel"] < 10 * speed[task]["evogym"])):
+            if missed:
+                low[goal].add(task)
+    said = {line.split(":")[0]: set(re.findall(r"`([^`]+)`", line.split("miss it")[1]) if "miss it" in line else [])
+            for line in hooks.evogym_task_misses(ROOT).splitlines() if line.startswith("* ")}
+    assert said["* held-out Spearman >= 0.95"] == low["Spearman"]
+    assert said["* held-out sign agreement >= 95%"] == low["sign agreement"]
+    assert said["* at least 10x Evolution Gym's env steps/s"] == low["10x speed"]

@@ -24,6 +24,11 @@ Generated so that they cannot drift from the code or the committed data:
   saturate (evaluations to a reward, mean best-so-far) and its primary and exploratory tests (``pairwise.csv``);
 * ``<!-- gdabench:thesis-budget -->`` and ``<!-- gdabench:thesis-budget-bodies -->`` become the thesis's budget
   against its author's numbers, from ``docs/benchmarks/output/thesis-budget.csv`` (benchmarks/thesis_budget.py);
+* ``<!-- gdabench:evogym-task-summary -->``, ``<!-- gdabench:evogym-task-misses -->``,
+  ``<!-- gdabench:evogym-task-parity -->`` and ``<!-- gdabench:evogym-task-control -->`` become the voxel engine
+  against Evolution Gym on its 32 tasks (parity steps, fidelity, stability, speed, the goals missed and Evolution
+  Gym against itself), from the ``task-*.json`` and ``task-fidelity*.csv`` outputs in ``docs/benchmarks/output/``
+  (``benchmarks/task_parity.py``, ``task_fidelity.py``, ``task_stability.py``, ``task_speed.py``);
 * ``<!-- gdabench:extras -->`` becomes the table of the optional extras in ``pyproject.toml``.
 
 Files outside ``docs/`` that pages show or link to (the committed reference runs under
@@ -38,6 +43,8 @@ build warns (so fails in strict mode) until the entry is removed from that list.
 
 from __future__ import annotations
 
+import csv
+import json
 import re
 import tomllib
 from pathlib import Path
@@ -56,6 +63,10 @@ PUBLISHED = "results/reference"
 THESIS_BODIES = "docs/benchmarks/output/thesis-walker-bodies.csv"
 #: what benchmarks/thesis_budget.py trained of them, row by row
 THESIS_BUDGET = "docs/benchmarks/output/thesis-budget.csv"
+#: the outputs of the task benchmarks (benchmarks/task_*.py); the controls may be missing (not run yet)
+TASK_OUTPUT = "docs/benchmarks/output"
+#: issue 53's speed goal: env steps/s of a batch of 64 on one core against Evolution Gym's, on every task
+TASK_SPEED_GOAL = 10.0
 #: rewards the walker page counts evaluations to (the runs' generation-0 bests lie between 3.3 and 5.3)
 WALKER_THRESHOLDS = (5.0, 6.0)
 
@@ -379,6 +390,196 @@ def evogym_tasks() -> str:
     return "\n".join(rows)
 
 
+def _task_output(root: Path, name: str, required: bool = True) -> Any:
+    """One task benchmark's JSON output; None for a missing optional one (a control not run)."""
+    path = root / TASK_OUTPUT / name
+    if not required and not path.exists():
+        return None
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise PluginError(f"cannot read {TASK_OUTPUT}/{name}: {exc}") from exc
+
+
+def _task_episodes(root: Path, name: str) -> dict[tuple[str, str, str], dict[str, str]]:
+    """task_fidelity's episodes (its CSV) by (task, body, gait); empty if the control was not run."""
+    path = root / TASK_OUTPUT / name
+    if not path.exists():
+        return {}
+    with path.open(newline="") as f:
+        return {(r["task"], r["body"], r["gait"]): r for r in csv.DictReader(f)}
+
+
+def task_evidence(root: Path) -> dict[str, Any]:
+    """Every task benchmark's output, per task: parity, fidelity, stability, speed and the two controls."""
+    by_task = lambda out, key="tasks": {r["task"]: r for r in out[key]} if out else {}  # noqa: E731
+    fidelity = _task_output(root, "task-fidelity.json")
+    speed = _task_output(root, "task-speed.json")
+    return {
+        "parity": by_task(_task_output(root, "task-parity.json")),
+        "parity_control": by_task(_task_output(root, "task-parity-control.json", required=False)),
+        "fidelity": by_task(fidelity),
+        "fidelity_control": by_task(_task_output(root, "task-fidelity-control.json", required=False)),
+        "stability": by_task(_task_output(root, "task-stability.json", required=False)),
+        "speed": by_task(speed, "rows"),
+        "speed_settings": {k: v for k, v in speed.items() if k != "rows"},
+        "goal": fidelity["goal"],
+    }
+
+
+#: issue 53's goals, as ``task_goals`` names them
+TASK_GOALS = {
+    "parity over 10 steps": "positions and observations within 1e-6 over the first 10 steps",
+    "Spearman": "held-out Spearman >= {spearman}",
+    "sign agreement": "held-out sign agreement >= {sign_agreement:.0%}",
+    "unstable in one simulator only": "no held-out episode unstable in one simulator only",
+    "stability checks": "random actions: no NaN, observations inside their space, unstable steps undone and penalised",
+    "unstable rate": "random actions: as many unstable bodies as Evolution Gym has",
+    "10x speed": "at least {speed:.0f}x Evolution Gym's env steps/s",
+}
+
+
+def task_goals(evidence: dict[str, Any], task: str) -> dict[str, bool | None]:
+    """Whether ``task`` meets each of issue 53's goals (:data:`TASK_GOALS`); None where it was not measured."""
+    goal = evidence["goal"]
+    parity, stability, speed = (evidence[k].get(task) for k in ("parity", "stability", "speed"))
+    held = evidence["fidelity"].get(task, {}).get("parts", {}).get("held-out")
+    met = lambda measured, test: bool(test()) if measured else None  # noqa: E731
+    return {
+        "parity over 10 steps": met(parity, lambda: (parity["first_over"]["1e-6"] or 11) > 10),
+        "Spearman": met(held, lambda: held["spearman"] >= goal["spearman"]),
+        "sign agreement": met(held, lambda: held["sign_agreement"] >= goal["sign_agreement"]),
+        "unstable in one simulator only": met(
+            held, lambda: held["unstable_ours_only"] + held["unstable_evogym_only"] == 0),
+        "stability checks": met(stability, lambda: not any(stability["problems"].values())),
+        "unstable rate": met(stability, lambda: stability.get("unstable_voxel") == stability.get("unstable_evogym")),
+        "10x speed": met(speed, lambda: speed["ratio"] >= TASK_SPEED_GOAL),
+    }
+
+
+def _steps(parity: dict[str, Any]) -> str:
+    return "all" if parity["parity_all_steps"] else str(parity["parity_steps"])
+
+
+def _share(value: float) -> str:
+    return f"{100 * value:.1f}%"
+
+
+def evogym_task_summary(root: Path) -> str:
+    """Per task: parity steps, held-out Spearman and sign agreement, unstable bodies, speed, the goals missed."""
+    from gdabench.envs.tasks import ENTRIES
+
+    ev = task_evidence(root)
+    goal = ev["goal"]
+    lines = ["| task | grade | parity steps (gap <= 1e-6) | held-out Spearman | held-out sign agreement "
+             "| unstable bodies: voxel / Evolution Gym | voxel env steps/s | Evolution Gym env steps/s | speed ratio "
+             "| KB per env | goals missed |", "|---|---|--:|--:|--:|--:|--:|--:|--:|--:|---|"]
+    for entry in ENTRIES:
+        task = entry.id
+        parity, stability, speed = (ev[k].get(task) for k in ("parity", "stability", "speed"))
+        held = ev["fidelity"].get(task, {}).get("parts", {}).get("held-out")
+        bold = lambda text, miss: f"**{text}**" if miss else text  # noqa: E731
+        cells = [f"`{task}`", entry.difficulty, _steps(parity) if parity else "not run"]
+        cells += [bold(f"{held['spearman']:.3f}", held["spearman"] < goal["spearman"]),
+                  bold(_share(held["sign_agreement"]), held["sign_agreement"] < goal["sign_agreement"])] \
+            if held else ["not run"] * 2
+        cells.append(bold(f"{stability['unstable_voxel']} / {stability['unstable_evogym']}",
+                          stability["unstable_voxel"] != stability["unstable_evogym"]) if stability else "not run")
+        cells += [f"{speed['voxel']:,.0f}", f"{speed['evogym']:,.0f}",
+                  bold(f"{speed['ratio']:.1f}x", speed["ratio"] < TASK_SPEED_GOAL),
+                  f"{speed['bytes_per_env'] / 1e3:.0f}"] if speed else ["not run"] * 4
+        goals = task_goals(ev, task)
+        unmeasured = [name for name, met in goals.items() if met is None]
+        cells.append((", ".join(name for name, met in goals.items() if met is False) or "none")
+                     + (f" (not measured: {', '.join(unmeasured)})" if unmeasured else ""))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def evogym_task_misses(root: Path) -> str:
+    """Which tasks miss which goal; the held-out episodes where the simulators part, beside Evolution Gym nudged."""
+    from gdabench.envs.tasks import ENTRIES
+
+    ev = task_evidence(root)
+    goals = {entry.id: task_goals(ev, entry.id) for entry in ENTRIES}
+    lines = []
+    for key, text in TASK_GOALS.items():
+        text = text.format(speed=TASK_SPEED_GOAL, **ev["goal"])
+        missed = [t for t, g in goals.items() if g[key] is False]
+        unmeasured = [t for t, g in goals.items() if g[key] is None]
+        said = f"**{len(missed)} of {len(goals)} tasks miss it**: " + ", ".join(f"`{t}`" for t in missed) if missed \
+            else f"every task {'measured ' if unmeasured else ''}meets it"
+        if len(unmeasured) == len(goals):
+            said = "not measured"
+        elif unmeasured:
+            said += f"; not measured on {len(unmeasured)}: " + ", ".join(f"`{t}`" for t in unmeasured)
+        lines.append(f"* {text}: {said}")
+    missed = {t: [k for k, v in g.items() if v is False] for t, g in goals.items()}
+    fidelity_keys = {"Spearman", "sign agreement", "unstable in one simulator only"}
+    parted = [t for t, m in missed.items() if fidelity_keys & set(m)]
+    if not parted:
+        return "\n".join(lines)
+    ours, nudged = _task_episodes(root, "task-fidelity.csv"), _task_episodes(root, "task-fidelity-control.csv")
+    show = lambda r, who: f"{float(r['return_' + who]):.4g}" + (  # noqa: E731
+        f" (ended at {r['steps_' + who]}{', unstable' if r['unstable_' + who] == '1' else ''})"
+        if r["steps_voxel"] != r["steps_evogym"] or r["unstable_voxel"] != r["unstable_evogym"] else "")
+    lines += ["", "Held-out episodes of these tasks whose returns differ in sign, or whose episodes end differently:",
+              "", "| task | body | gait | voxel engine | Evolution Gym | Evolution Gym, actions + 1e-14 |",
+              "|---|---|---|--:|--:|--:|"]
+    for key, r in ours.items():
+        if key[0] not in parted or r["part"] != "held-out":
+            continue
+        a, b = float(r["return_voxel"]), float(r["return_evogym"])
+        ends = (r["steps_voxel"], r["unstable_voxel"]) != (r["steps_evogym"], r["unstable_evogym"])
+        if (a > 0) - (a < 0) != (b > 0) - (b < 0) or ends:  # np.sign, as task_fidelity's sign agreement
+            c = nudged.get(key)
+            lines.append(f"| `{key[0]}` | `{key[1]}` | {key[2]} | {show(r, 'voxel')} | {show(r, 'evogym')} "
+                         f"| {show(c, 'voxel') if c else 'not run'} |")
+    return "\n".join(lines)
+
+
+def evogym_task_parity(root: Path) -> str:
+    """Per task: where the voxel engine's trajectories part from Evolution Gym's, beside Evolution Gym nudged."""
+    from gdabench.envs.tasks import ENTRIES
+
+    ev = task_evidence(root)
+    step = lambda v: "-" if v is None else str(v)  # noqa: E731
+    lines = ["| task | steps played | first step with a gap > 0 | > 1e-12 | > 1e-6 | > 1e-3 "
+             "| largest position gap, steps 1-100 | to the end | ends agree "
+             "| Evolution Gym nudged: > 1e-12 | > 1e-6 | > 1e-3 |", "|---|--:|--:|--:|--:|--:|--:|--:|---|--:|--:|--:|"]
+    for entry in ENTRIES:
+        p, c = ev["parity"].get(entry.id), ev["parity_control"].get(entry.id)
+        if p is None:
+            continue
+        lengths = sorted({b["steps"] for b in p["per_body"]})
+        played = f"{lengths[0]}" + (f"-{lengths[-1]}" if len(lengths) > 1 else "")
+        first, gap = p["first_over"], p["gap_up_to"]["pos"]
+        control = [step(c["first_over"][k]) for k in ("1e-12", "1e-6", "1e-3")] if c else ["not run"] * 3
+        lines.append(f"| `{entry.id}` | {played} | {step(first['0'])} | {step(first['1e-12'])} | {step(first['1e-6'])} "
+                     f"| {step(first['1e-3'])} | {gap.get('100', 0.0):.0e} | {max(gap.values()):.0e} "
+                     f"| {'yes' if p['ends_agree'] else '**no**'} | " + " | ".join(control) + " |")
+    return "\n".join(lines)
+
+
+def evogym_task_control(root: Path) -> str:
+    """The held-out figures of the voxel engine against Evolution Gym beside Evolution Gym against itself, nudged."""
+    ev = task_evidence(root)
+    if not ev["fidelity_control"]:
+        return "*Not run yet: `task-fidelity-control.json` is not committed.*"
+    lines = ["| task | episodes | voxel vs Evolution Gym: Spearman | sign agreement | unstable in one only "
+             "| median trajectory gap (voxels) | Evolution Gym vs nudged: Spearman | sign agreement "
+             "| unstable in one only | median trajectory gap (voxels) |", "|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|"]
+    for task, control in ev["fidelity_control"].items():
+        cells = []
+        for result in (ev["fidelity"][task], control):
+            held = result["parts"]["held-out"]
+            only = round((held["unstable_ours_only"] + held["unstable_evogym_only"]) * held["episodes"])
+            cells += [f"{held['spearman']:.3f}", _share(held["sign_agreement"]), str(only),
+                      f"{held['trajectory_gap_voxels']:.0e}"]
+        lines.append(f"| `{task}` | {control['parts']['held-out']['episodes']} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def thesis_budget(root: Path) -> str:
     """The agreement of each budget's rewards with the thesis author's, from benchmarks/thesis_budget.py's rows."""
     import pandas as pd
@@ -545,6 +746,10 @@ def on_page_markdown(markdown: str, page: Any, config: Any, files: Files) -> str
         "thesis-budget-bodies": lambda: thesis_budget_bodies(root),
         "extras": lambda: extras_table(root),
         "evogym-tasks": evogym_tasks,
+        "evogym-task-summary": lambda: evogym_task_summary(root),
+        "evogym-task-misses": lambda: evogym_task_misses(root),
+        "evogym-task-parity": lambda: evogym_task_parity(root),
+        "evogym-task-control": lambda: evogym_task_control(root),
     }
     with_argument = {"reference-summary", "walker-claims", "walker-variants"}
 
