@@ -196,6 +196,9 @@ def test_a_child_learns_the_same_from_its_parent_in_memory_and_read_back_from_di
     assert in_memory.info["ppo_inherited"] == from_disk.info["ppo_inherited"] == 1
     assert in_memory.reward == from_disk.reward != scratch.reward
     assert trained.info["ppo_inherited"] == 0
+    # a report replays a child alone, its parents unknown: the policy it saved, not a new training
+    replayed = PPO(timesteps=128, init="parent").evaluate(lambda: env.make_env(child), seed=2, workdir=tmp_path / "one")
+    assert replayed.info["replayed"] == 1 and replayed.reward == in_memory.reward
 
 
 CONTROLLER = "ppo[timesteps=128,init=parent]"

@@ -105,8 +105,10 @@ class PPO(Controller):
         parents: list[tuple[Path, Inheritable] | None] = [None] * len(bodies)
         if self.inherits and bodies.parents is not None:
             parents = [self._parent(p) for p in bodies.parents]
+        # parents unknown (a report replaying one body): any saved policy of these settings and seed is the body's
+        known = bodies.parents is not None
         out: list[Evaluation | BaseException | None] = [
-            self._saved(make_env, seed, workdir, _name(parent))
+            self._saved(make_env, seed, workdir, _name(parent), known)
             for make_env, seed, workdir, parent in zip(bodies.make_envs, seeds, workdirs, parents)
         ]
         todo = [i for i, result in enumerate(out) if result is None]
@@ -137,14 +139,19 @@ class PPO(Controller):
         return [r for r in out if r is not None]
 
     def _saved(
-        self, make_env: Callable[[], Any], seed: int, workdir: Path | None, parent: str | None = None
+        self, make_env: Callable[[], Any], seed: int, workdir: Path | None, parent: str | None = None,
+        parent_known: bool = True,
     ) -> Evaluation | BaseException | None:
-        """The replayed score of a policy saved for these settings, seed (and parent), or None."""
+        """The replayed score of a policy saved for these settings, seed (and parent, where known), or None."""
         if workdir is None or not readable_policy(workdir):
             return None
         try:
             saved = load_policy(workdir, self.device)
-            if saved.meta.get("trained_with") != self.fingerprint(seed, parent):
+            trained_with, expected = dict(saved.meta.get("trained_with") or {}), self.fingerprint(seed, parent)
+            if not parent_known:
+                trained_with.pop("parent", None)
+                expected.pop("parent", None)
+            if trained_with != expected:
                 return None
             if self.inherits and "layout" in saved.meta:
                 self._keep(workdir, _inheritable(load_policy(workdir, "cpu")))
