@@ -268,6 +268,8 @@ class BodyTables:
     point_edges: np.ndarray  # (B, 2E): per point, its edges where it is end a, then where it is end b
     point_start: np.ndarray  # (B, P + 1): where each point's run in point_edges starts
     point_n_a: np.ndarray  # (B, P): how many of them are a ends
+    live: np.ndarray  # (B, 2): how many edges touch a moving point (they come first), a moving or near one (_live)
+    far: np.ndarray  # (B, P) bool: pinned points sharing no spring with a moving point
     init_pos: np.ndarray  # (B, P, 2)
 
     @property
@@ -324,6 +326,28 @@ def _incidence(edge_ab: np.ndarray, n_points: int) -> tuple[np.ndarray, np.ndarr
         n_a.append(len(ends_a))
     start = np.concatenate([[0], np.cumsum([len(r) for r in runs])])
     return np.concatenate(runs).astype(np.int64), start.astype(np.int64), np.array(n_a, dtype=np.int64)
+
+
+def _live(edge_ab: np.ndarray, fixed: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which accelerations can reach a moving point: ``(edge order, counts, far points)`` for the kernel.
+
+    A pinned point's RK4 update is discarded and its velocity stays zero, so its position is its rest in
+    stages 1 and 2 and moves in stages 3 and 4 by its accelerations in stages 1 and 2.  Hence a moving point's
+    accelerations are needed in all four stages; a pinned point's sharing a spring with one (a "near" point)
+    in the first two; every other ("far") point's never, and an edge's force only where it touches a point
+    computed then.  The edges are put in that order: those touching a moving point, those touching a near
+    one, the rest (each part in edge order, in which the clamps apply their corrections; an edge between
+    pinned points moves neither)."""
+    moving = ~fixed
+    a, b = edge_ab[:, 0], edge_ab[:, 1]
+    touch_moving = moving[a] | moving[b]
+    near = moving.copy()
+    near[a[touch_moving]] = True
+    near[b[touch_moving]] = True
+    touch_near = near[a] | near[b]
+    order = np.concatenate([np.flatnonzero(touch_moving), np.flatnonzero(touch_near & ~touch_moving),
+                            np.flatnonzero(~touch_near)])
+    return order, np.array([touch_moving.sum(), touch_near.sum()], dtype=np.int64), ~near
 
 
 def _unshared(main: np.ndarray, ref: np.ndarray) -> int:
@@ -438,21 +462,28 @@ def _assemble(w: World, robot: Object) -> dict[str, np.ndarray]:
         assert robot.boxel_type[a] in (H_ACT, V_ACT)
         acts.append((top, bot) if robot.boxel_type[a] == H_ACT else (left, right))
     pairs, group_start, group_pairs = _pairs(parts, robot_index)
+    fixed = np.concatenate([p.obj.fixed for p in parts])
+    order, live, far = _live(edge_ab, fixed)
+    renumber = np.empty_like(order)  # edges are renumbered in that order (no edge index leaves the kernel)
+    renumber[order] = np.arange(len(order))
+    inc, inc_start, inc_n_a = _incidence(edge_ab, point0)  # (each point's edges in their first order)
     return {
-        "edges": edge_ab,
-        "rest0": np.concatenate([p.obj.edge_len for p in parts]),
-        "spring_k": np.concatenate([p.obj.edge_k for p in parts]),
-        "edge_surface": np.concatenate([p.obj.edge_surface for p in parts]),
-        "fixed": np.concatenate([p.obj.fixed for p in parts]),
-        "act_edges": np.array(acts, dtype=np.int64).reshape(-1, 2),
+        "edges": edge_ab[order],
+        "rest0": np.concatenate([p.obj.edge_len for p in parts])[order],
+        "spring_k": np.concatenate([p.obj.edge_k for p in parts])[order],
+        "edge_surface": np.concatenate([p.obj.edge_surface for p in parts])[order],
+        "fixed": fixed,
+        "act_edges": renumber[np.array(acts, dtype=np.int64).reshape(-1, 2)],
         "surface_owner": np.concatenate([np.full(len(p.surface), p.owner) for p in by_surface]),
         "surface_points": np.concatenate([p.obj.boxel_points[p.surface] + p.point0 for p in by_surface]),
-        "surface_edges": np.concatenate([p.obj.boxel_edges[p.surface] + p.edge0 for p in by_surface]),
+        "surface_edges": renumber[np.concatenate([p.obj.boxel_edges[p.surface] + p.edge0 for p in by_surface])],
         "pairs": pairs,
         "group_start": group_start,
         "group_pairs": group_pairs,
-        "rigid_edges": rigid.reshape(-1, 4),
-        "incidence": _incidence(edge_ab, point0),  # type: ignore[dict-item]
+        "rigid_edges": renumber[rigid.reshape(-1, 4)],
+        "incidence": (renumber[inc], inc_start, inc_n_a),
+        "live": live,
+        "far": far,
         "init_pos": np.concatenate([p.obj.pos for p in parts]),
         "n_robot_surface": np.array(len(parts[robot_index].surface)),
     }
@@ -511,6 +542,8 @@ def body_tables(bodies: Sequence[Body | np.ndarray | str], w: World = WALKER_WOR
         point_edges=_pad([r["incidence"][0] for r in rows], (2 * E,), i64),
         point_start=_pad([r["incidence"][1] for r in rows], (P + 1,), i64),
         point_n_a=_pad([r["incidence"][2] for r in rows], (P,), i64),
+        live=np.stack([r["live"] for r in rows]),
+        far=stack("far", (P,), np.bool_),
         init_pos=stack("init_pos", (P, 2), np.float64),
     )
 
@@ -529,7 +562,7 @@ def kernel_args(tables: BodyTables) -> tuple[tuple, tuple]:
             tables.fixed, tables.n_act, tables.act_edges, tables.n_surface, tables.n_robot_surface,
             tables.surface_owner, tables.surface_points, tables.surface_edges, tables.pairs, tables.n_groups,
             tables.group_start, tables.n_group_pairs, tables.group_pairs, tables.n_rigid, tables.rigid_edges,
-            tables.point_edges, tables.point_start, tables.point_n_a)
+            tables.point_edges, tables.point_start, tables.point_n_a, tables.live, tables.far)
     return body, tables.world.terrain.arrays()
 
 

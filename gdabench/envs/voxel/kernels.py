@@ -195,8 +195,9 @@ def _resolve_point(p, main_edges, m, corner, pm, em, vm, fm, apply_m, ref_edges,
 
 
 @_jit
-def _slope(xp, xv, ne, ea, rest, k, cforce, n, fe, inc, start, n_a, out_a):
-    """``PhysicsEngine::get_pos_vel_slope``: accelerations of the robot's points (mass 1) at one RK4 stage."""
+def _slope(xp, xv, ne, ea, rest, k, cforce, n, skip, fe, inc, start, n_a, out_a):
+    """``PhysicsEngine::get_pos_vel_slope``: accelerations of the points (mass 1) at one RK4 stage, but of those
+    in ``skip``, from the springs of the first ``ne`` edges (every edge of a point not skipped)."""
     for j in range(ne):
         a = ea[j, 0]
         b = ea[j, 1]
@@ -206,18 +207,20 @@ def _slope(xp, xv, ne, ea, rest, k, cforce, n, fe, inc, start, n_a, out_a):
         mag = (dist - rest[j]) * k[j] / dist
         fe[j, 0] = dx * mag
         fe[j, 1] = dy * mag
-    _accelerations(xp, xv, cforce, n, fe, inc, start, n_a, out_a)
+    _accelerations(xp, xv, cforce, n, skip, fe, inc, start, n_a, out_a)
 
 
 @_jit
-def _accelerations(xp, xv, cforce, n, fe, inc, start, n_a, out_a):
+def _accelerations(xp, xv, cforce, n, skip, fe, inc, start, n_a, out_a):
     """The second half of :func:`_slope`, from the springs' forces ``fe``.
 
     Spring forces are gathered per point from ``inc`` (its edges where it is end ``a``, then where it
     is end ``b``, each in edge order): the same additions in the same order as Evolution Gym's scatter
-    over all ``a`` ends, then all ``b`` ends.
+    over all ``a`` ends, then all ``b`` ends.  Points in ``skip`` are left as they are.
     """
     for i in range(n):
+        if skip[i]:
+            continue
         fx = 0.0
         fy = 0.0
         first_b = start[i] + n_a[i]
@@ -243,9 +246,15 @@ def _accelerations(xp, xv, cforce, n, fe, inc, start, n_a, out_a):
 
 @_jit
 def _substep(n, ne, ea, rest0, k, esurf, fixed, goal, ns, sown, sbp, sbe, pairs, ng, gstart, ngp, gpairs, nr, rig, inc,
-             start, n_a, terrain, pos, vel, vt, s):
+             start, n_a, live, far, terrain, pos, vel, vt, s):
     """``Environment::step``: one physics update of dt 1e-4.  Returns the count of overlapping
-    non-adjacent surface boxel pairs of the robot (ordered, as Evolution Gym counts them) seen at its start."""
+    non-adjacent surface boxel pairs of the robot (ordered, as Evolution Gym counts them) seen at its start.
+
+    Only the accelerations that can reach a moving point are computed (see :func:`engine._live`): the moving
+    points' in RK4's four stages, the pinned points' sharing a spring with one (not ``far``) in the first two;
+    edges come ordered so that those touching a moving point (``live[0]``), then a near one (``live[1]``), lead.
+    """
+    ne_move, ne_near = live[0], live[1]
     tpos, tedge, tsurf, tbp, tbe, tbb, town, tlink, tbin_start, tbin_boxel, trows, tzero = terrain
     cf, boxes, rest, fe, x0, v0, xs, vs, acc, sp, sv, corr = s
     bb = boxes[0]
@@ -341,7 +350,7 @@ def _substep(n, ne, ea, rest0, k, esurf, fixed, goal, ns, sown, sbp, sbe, pairs,
                                        cf, True, times)
     # rest lengths re-anchored towards their goals; the lengths they are measured from are those of
     # RK4's first stage (its positions are these), so that stage's spring forces are computed here too
-    for j in range(ne):
+    for j in range(ne_near):
         dx = pos[ea[j, 0], 0] - pos[ea[j, 1], 0]
         dy = pos[ea[j, 0], 1] - pos[ea[j, 1], 1]
         dist = math.sqrt(dx * dx + dy * dy)
@@ -355,7 +364,7 @@ def _substep(n, ne, ea, rest0, k, esurf, fixed, goal, ns, sown, sbp, sbe, pairs,
         x0[i, 1] = pos[i, 1]
         v0[i, 0] = vel[i, 0]
         v0[i, 1] = vel[i, 1]
-    _accelerations(x0, v0, cf, n, fe, inc, start, n_a, acc)
+    _accelerations(x0, v0, cf, n, far, fe, inc, start, n_a, acc)
     for i in range(n):
         for c in range(2):
             kp = v0[i, c] * DT
@@ -365,7 +374,10 @@ def _substep(n, ne, ea, rest0, k, esurf, fixed, goal, ns, sown, sbp, sbe, pairs,
             xs[i, c] = x0[i, c] + kp * 0.5
             vs[i, c] = v0[i, c] + kv * 0.5
     for step in (0.5, 1.0):  # k2 and k3: the next stage starts half a step, then a whole step, ahead
-        _slope(xs, vs, ne, ea, rest, k, cf, n, fe, inc, start, n_a, acc)
+        if step == 0.5:
+            _slope(xs, vs, ne_near, ea, rest, k, cf, n, far, fe, inc, start, n_a, acc)
+        else:
+            _slope(xs, vs, ne_move, ea, rest, k, cf, n, fixed, fe, inc, start, n_a, acc)
         for i in range(n):
             for c in range(2):
                 kp = vs[i, c] * DT
@@ -374,15 +386,16 @@ def _substep(n, ne, ea, rest0, k, esurf, fixed, goal, ns, sown, sbp, sbe, pairs,
                 sv[i, c] = sv[i, c] + 2 * kv
                 xs[i, c] = x0[i, c] + kp * step
                 vs[i, c] = v0[i, c] + kv * step
-    _slope(xs, vs, ne, ea, rest, k, cf, n, fe, inc, start, n_a, acc)
+    _slope(xs, vs, ne_move, ea, rest, k, cf, n, fixed, fe, inc, start, n_a, acc)
     for i in range(n):
         if fixed[i]:  # pinned: moved through RK4's stages like any point, but its update is zeroed
             continue
         for c in range(2):
             pos[i, c] = x0[i, c] + (sp[i, c] + vs[i, c] * DT) / 6
             vel[i, c] = v0[i, c] + (sv[i, c] + acc[i, c] * DT) / 6
-    # edge clamps: every edge within 25% of its length (all at once), then rigid cells' edges within 3% (in turn)
-    for j in range(ne):
+    # edge clamps: every edge within 25% of its length (all at once), then rigid cells' edges within 3% (in turn);
+    # an edge between two pinned points moves neither
+    for j in range(ne_move):
         dx = pos[ea[j, 0], 0] - pos[ea[j, 1], 0]
         dy = pos[ea[j, 0], 1] - pos[ea[j, 1], 1]
         dist = math.sqrt(dx * dx + dy * dy)
@@ -398,11 +411,11 @@ def _substep(n, ne, ea, rest0, k, esurf, fixed, goal, ns, sown, sbp, sbe, pairs,
             uy = dy * under
         corr[j, 0] = (ox + ux) * 0.8
         corr[j, 1] = (oy + uy) * 0.8
-    for j in range(ne):  # (fixed points are not moved here; the rigid pass below does not ask, as in Evolution Gym)
+    for j in range(ne_move):  # (fixed points are not moved here; the rigid pass below does not ask, as Evolution Gym)
         if not fixed[ea[j, 0]]:
             pos[ea[j, 0], 0] -= corr[j, 0]
             pos[ea[j, 0], 1] -= corr[j, 1]
-    for j in range(ne):
+    for j in range(ne_move):
         if not fixed[ea[j, 1]]:
             pos[ea[j, 1], 0] += corr[j, 0]
             pos[ea[j, 1], 1] += corr[j, 1]
@@ -447,7 +460,8 @@ def step_env(b, actions, pos, vel, vt, body, terrain, wp, we, ws, wb):
     """
     (n_points, n_edges, edges, rest0, spring_k, edge_surface, fixed, n_act, act_edges, n_surface, n_robot_surface,
      surface_owner, surface_points, surface_edges, pairs, n_groups, group_start, n_group_pairs, group_pairs, n_rigid,
-     rigid_edges, point_edges, point_start, point_n_a) = body
+     rigid_edges, point_edges, point_start, point_n_a, live, far) = body
+    acc = wp[5]
     p0 = wp[8]
     v0 = wp[9]
     t0 = wp[10]
@@ -479,13 +493,15 @@ def step_env(b, actions, pos, vel, vt, body, terrain, wp, we, ws, wb):
     scratch = (wp[0], wb, ws[0], we[0], wp[1], wp[2], wp[3], wp[4], wp[5], wp[6], wp[7], we[1])
     for m in range(n):
         for c in range(2):
+            acc[m, c] = 0.0  # (the points whose accelerations are never needed keep these)
             p0[m, c] = pos[m, c]
             v0[m, c] = vel[m, c]
             t0[m, c] = vt[m, c]
     for _ in range(SUBSTEPS):
         c = _substep(n, ne, ea, r0, spring_k[b], edge_surface[b], fixed[b], goal, n_surface[b], surface_owner[b],
                      surface_points[b], surface_edges[b], pairs[b], n_groups[b], group_start[b], n_group_pairs[b],
-                     group_pairs[b], n_rigid[b], rigid_edges[b], point_edges[b], point_start[b], point_n_a[b], terrain,
+                     group_pairs[b], n_rigid[b], rigid_edges[b], point_edges[b], point_start[b], point_n_a[b], live[b],
+                     far[b], terrain,
                      pos, vel, vt, scratch)
         if c > n_robot_surface[b]:
             for m in range(n):
@@ -510,7 +526,7 @@ def workspace(n: int, points: int, edges: int, surface: int) -> tuple[np.ndarray
 
 
 #: how many of the arrays after the work arrays are the body tables' (the rest are the terrain's)
-BODY_ARRAYS = 24
+BODY_ARRAYS = 26
 
 
 @_jit
