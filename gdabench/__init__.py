@@ -9,7 +9,7 @@ from typing import Any
 
 from . import cpu as _cpu  # noqa: F401 - first: pins torch's kernels before anything imports torch (gdabench.cpu)
 from .body import DEFAULT_SHAPE, EMPTY, H_ACT, RIGID, SOFT, V_ACT, Body, as_body, is_valid, mutate, random_body
-from .designer import Designer, ranking_rewards, top_k
+from .designer import Designer, nearest_first, ranking_rewards, top_k
 from .environment import Controller, Environment, Evaluation
 from .envs import (
     voxel as _voxel,  # noqa: F401 - registers gdabench/Walker-v2 with Gymnasium (Numba loads on make)
@@ -104,6 +104,7 @@ __all__ = [
     "make_designer",
     "make_env",
     "mutate",
+    "nearest_first",
     "open_run",
     "random_body",
     "ranking_rewards",

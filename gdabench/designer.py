@@ -70,6 +70,26 @@ class Designer(abc.ABC):
         """
         return []
 
+    def proposal_parents(self) -> list[Sequence[Body]]:
+        """The bodies each body of the last :meth:`ask` came from, nearest first (optional).
+
+        Return one sequence per body (empty for a body with no parent, e.g. a random one), or an empty
+        list to say nothing (the default).  Parents are bodies this designer was told about in earlier
+        generations; a controller that inherits (``ppo[init=parent]``) starts a child's policy from its
+        first parent that was evaluated in the same trial.  See :func:`nearest_first`.
+        """
+        return []
+
+
+def hamming(a: Body, b: Body) -> int:
+    """Voxels in which two bodies of one shape differ."""
+    return int(np.count_nonzero(np.asarray(a.voxels) != np.asarray(b.voxels)))
+
+
+def nearest_first(child: Body, parents: Sequence[Body]) -> list[Body]:
+    """``parents`` sorted by voxel (Hamming) distance to ``child``, ties in their given order."""
+    return sorted(parents, key=lambda p: hamming(child, p))
+
 
 def ranking_rewards(rewards: Sequence[float]) -> np.ndarray:
     """Rewards as floats with ``nan`` replaced by ``-inf``, ready for sorting."""

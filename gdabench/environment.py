@@ -40,6 +40,10 @@ class Bodies:
     #: (observations, actions) that every batch of this environment is padded to, so that what a
     #: controller computes for a body does not depend on which bodies share its batch; None: none
     pad: tuple[int, int] | None = None
+    #: per body, the work directories of the bodies it came from, nearest first (the designer's
+    #: :meth:`~gdabench.Designer.proposal_parents`, where they were evaluated in the same trial); None: not known.
+    #: Given only to a controller that :attr:`~Controller.inherits`.
+    parents: Sequence[Sequence[Path]] | None = None
 
     def __len__(self) -> int:
         return len(self.make_envs)
@@ -51,6 +55,9 @@ class Controller(abc.ABC):
     #: bodies the harness hands :meth:`evaluate_bodies` in one call, at most, unless the run says otherwise
     #: (``--batch``); 1 unless the controller gains from having several together
     bodies_at_once: ClassVar[int] = 1
+    #: a child's evaluation starts from what its parents' left in their work directories (``Bodies.parents``),
+    #: as ``ppo[init=parent]`` does; the harness then hands the parents on and keeps no cross-run cache
+    inherits: bool = False
 
     @abc.abstractmethod
     def evaluate(self, make_env: Callable[[], Any], *, seed: int, workdir: Path | None = None) -> Evaluation:

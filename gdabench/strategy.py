@@ -35,6 +35,9 @@ class EvalTask:
     env: Factory
     controller: Factory | None = None
     workdir: Path | None = None
+    #: work directories of the bodies this one came from, nearest first (what the designer said, for a
+    #: controller that inherits a parent's policy, ``ppo[init=parent]``); empty otherwise
+    parents: tuple[Path, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -73,6 +73,7 @@ class GeneticAlgorithm(Designer):
         self.survivors: list[tuple[Body, float]] = []
         self._seen: set[str] = set()
         self._parents: list[str] = []
+        self._parent_bodies: list[Body | None] = []
 
     # -- schedule ----------------------------------------------------------------------------
     def survivor_count(self, evaluations: int) -> int:
@@ -91,10 +92,12 @@ class GeneticAlgorithm(Designer):
                 for _ in range(min(self.population, remaining))
             ]
             self._parents = [""] * len(bodies)
+            self._parent_bodies = [None] * len(bodies)
             return bodies
         wanted = min(self.population - len(self.survivors), remaining)
         children: list[Body] = []
         self._parents = []
+        self._parent_bodies = []
         for _ in range(self.max_tries):
             if len(children) == wanted:
                 return children
@@ -103,6 +106,7 @@ class GeneticAlgorithm(Designer):
             if child is not None and child.hash not in self._seen:
                 children.append(self._remember(child))
                 self._parents.append(parent.hash)
+                self._parent_bodies.append(parent)
         if len(children) == wanted:
             return children
         raise DesignerError(f"ga: no new valid child found in {self.max_tries} tries (is the body space exhausted?)")
@@ -116,6 +120,10 @@ class GeneticAlgorithm(Designer):
 
     def proposal_info(self) -> list[Mapping[str, Any]]:
         return [{"parent": p} for p in self._parents]
+
+    def proposal_parents(self) -> list[Sequence[Body]]:
+        """A child's parent is the survivor it was mutated from (no crossover); generation 0 has none."""
+        return [() if p is None else (p,) for p in self._parent_bodies]
 
     def _remember(self, body: Body) -> Body:
         self._seen.add(body.hash)

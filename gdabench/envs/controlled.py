@@ -9,6 +9,7 @@ controller on environments that record the frames of its best episode.
 from __future__ import annotations
 
 import abc
+import dataclasses
 import functools
 import math
 from pathlib import Path
@@ -57,9 +58,14 @@ class ControlledEnvironment(Environment):
         seeds: Sequence[int],
         controller: Controller | None = None,
         workdirs: Sequence[Path | None],
+        parents: Sequence[Sequence[Path]] | None = None,
     ) -> list[float | Evaluation | BaseException]:
-        """The controller scores the bodies, together where it can (:meth:`Controller.evaluate_bodies`)."""
-        return list(self.require(controller).evaluate_bodies(self.bodies(bodies), seeds=seeds, workdirs=workdirs))
+        """The controller scores the bodies, together where it can (:meth:`Controller.evaluate_bodies`);
+        ``parents`` (the parents' work directories per body) are handed on in :attr:`Bodies.parents`."""
+        batch = self.bodies(bodies)
+        if parents is not None:
+            batch = dataclasses.replace(batch, parents=[tuple(p) for p in parents])
+        return list(self.require(controller).evaluate_bodies(batch, seeds=seeds, workdirs=workdirs))
 
     def render_frames(
         self, body: Body, *, seed: int, controller: Controller | None = None, workdir: Path | None = None

@@ -12,6 +12,7 @@ per process and reused.
 
 from __future__ import annotations
 
+import inspect
 import math
 import time
 from typing import Any, Sequence
@@ -63,11 +64,18 @@ def evaluate_batch(tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
     try:
         env: Environment = instance(first.env)
         controller = instance(first.controller) if first.controller else None
+        # the parents' work directories go to environments that hand them on (ControlledEnvironment does)
+        lineage = (
+            {"parents": [task.parents for task in tasks]}
+            if any(task.parents for task in tasks) and "parents" in inspect.signature(env.evaluate_bodies).parameters
+            else {}
+        )
         results = env.evaluate_bodies(
             [task.body for task in tasks],
             seeds=[task.seed for task in tasks],
             controller=controller,
             workdirs=[task.workdir for task in tasks],
+            **lineage,
         )
         if len(results) != len(tasks):
             raise RuntimeError(f"evaluate_bodies returned {len(results)} results for {len(tasks)} bodies")

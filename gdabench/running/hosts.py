@@ -86,7 +86,8 @@ class TrialHost:
         controller = instance(spec.controller) if spec.controller else None
         batch = self.execution.batch or (controller or env).bodies_at_once
         evaluate: Evaluate = functools.partial(self._executor.map, batch=batch)
-        if self.execution.cache is not None and spec.cache_context is not None:
+        # an inheriting controller's reward depends on the trial's history, which the cache does not key
+        if self.execution.cache is not None and spec.cache_context is not None and not self.trial.inherits:
             evaluate = cached(evaluate, EvaluationCache(self.execution.cache, spec.cache_context))
         # deterministic environments only; a Ray cluster's nodes may not see the run directory
         outcomes = (

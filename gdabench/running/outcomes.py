@@ -39,7 +39,11 @@ class RunOutcomes:
 
     def _path(self, task: EvalTask) -> Path:
         recipes = (task.env.key(), task.controller.key() if task.controller is not None else None)
-        key = hashlib.sha256(f"{recipes!r}|{task.body.hash}|{task.seed}".encode()).hexdigest()
+        text = f"{recipes!r}|{task.body.hash}|{task.seed}"
+        if task.parents:  # an inheriting controller's reward depends on the parents' files too
+            text += "|" + ",".join(str(p.relative_to(self.run_path)) if p.is_relative_to(self.run_path) else str(p)
+                                   for p in task.parents)
+        key = hashlib.sha256(text.encode()).hexdigest()
         return self.root / key[:2] / f"{key}.json"
 
     def get(self, task: EvalTask) -> EvalOutcome | None:

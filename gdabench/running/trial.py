@@ -19,7 +19,7 @@ import pickle
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import pandas as pd
 
@@ -28,6 +28,7 @@ from ..body import Body, as_body
 from ..designer import Designer
 from ..environment import Environment
 from ..errors import DesignerError, GdabenchError, one_line
+from ..execution.evaluation import instance
 from ..experiment.trial_spec import TrialSpec
 from ..hookspecs import GenerationReport
 from ..results import COLUMNS, Checkpoint, utc_now
@@ -69,6 +70,8 @@ class Trial:
         self.seen: dict[str, float] = {}
         self.n_evals, self.best, self.stale, self.tell_seconds = 0, math.nan, 0, 0.0
         self.clock0 = time.perf_counter()
+        #: the controller starts children from their parents' files (``Controller.inherits``)
+        self.inherits = spec.controller is not None and bool(getattr(instance(spec.controller), "inherits", False))
         if done is not None and len(done):
             counted = done[done["status"].isin(COUNTED)]
             self.seen = dict(zip(counted["body_hash"], counted["reward"]))
@@ -85,7 +88,7 @@ class Trial:
         if self.stale >= MAX_STALE_GENERATIONS:
             raise DesignerError(f"{self.label} proposed no new valid body in {self.stale} generations in a row")
         t0 = time.perf_counter()
-        bodies, info = self._ask()
+        bodies, info, parents = self._ask()
         design_seconds = self.tell_seconds + time.perf_counter() - t0
 
         rows: list[dict[str, Any]] = []
@@ -110,7 +113,8 @@ class Trial:
             else:
                 self.seen[body.hash] = math.nan  # reserve: later copies in this generation are duplicates
                 eval_seed = seeding.evaluation_seed(spec.seed, body.hash)
-                tasks.append(EvalTask(body, eval_seed, spec.env.factory, spec.controller, self.workdir / body.hash))
+                tasks.append(EvalTask(body, eval_seed, spec.env.factory, spec.controller, self.workdir / body.hash,
+                                      self._parent_workdirs(parents[index] if parents else ())))
                 task_rows.append(len(rows))
             rows.append(row)
         truncated = len(rows) < len(bodies)
@@ -178,10 +182,19 @@ class Trial:
         self.stale = 0 if evaluated else self.stale + 1
         return False
 
-    def _ask(self) -> tuple[list[Body], list[Mapping[str, Any]]]:
+    def _parent_workdirs(self, parents: Sequence[Body]) -> tuple[Path, ...]:
+        """Where the parents evaluated successfully in this trial keep their files, for a controller that
+        inherits (nothing for the others, so that their outcomes stay keyed by body and seed alone)."""
+        if not self.inherits:
+            return ()
+        return tuple(self.workdir / p.hash for p in parents if math.isfinite(self.seen.get(p.hash, math.nan)))
+
+    def _ask(self) -> tuple[list[Body], list[Mapping[str, Any]], list[Sequence[Body]]]:
         try:
             proposed = self.designer.ask()
             info = list(self.designer.proposal_info() or [])
+            said = self.designer.proposal_parents() or [] if self.inherits else []
+            parents: list[Sequence[Body]] = [[as_body(p) for p in ps] for ps in said]
         except GdabenchError:
             raise
         except Exception as exc:
@@ -194,7 +207,9 @@ class Trial:
             raise DesignerError(f"{self.label} proposed no bodies")
         if info and len(info) != len(bodies):
             raise DesignerError(f"{self.label}: proposal_info() has {len(info)} entries for {len(bodies)} bodies")
-        return bodies, [_extra(i, "designer") for i in info]
+        if parents and len(parents) != len(bodies):
+            raise DesignerError(f"{self.label}: proposal_parents() has {len(parents)} entries for {len(bodies)} bodies")
+        return bodies, [_extra(i, "designer") for i in info], parents
 
 
 def _extra(extra: Mapping[str, Any], who: str) -> Mapping[str, Any]:

@@ -29,6 +29,8 @@ MAX_COUNT = 1_000_000_000
 EPISODE_ENDS = ("evogym2", "full")
 #: the learning rate over a training: constant (Evolution Gym 2.0) or decaying linearly to 0 (1.0)
 LR_SCHEDULES = ("constant", "linear")
+#: where a body's networks start: fresh (Evolution Gym, the thesis) or from its nearest parent's trained ones
+INITS = ("scratch", "parent")
 
 
 @dataclass(frozen=True)
@@ -55,6 +57,9 @@ class PPOConfig:
     hidden: tuple[int, ...] = (64, 64)
     lr_schedule: str = "constant"
     normalize_obs: bool = False
+    #: scratch (fresh networks per body, Evolution Gym's) or parent (a child starts from its nearest parent's
+    #: trained policy, mapped by voxel: :mod:`~gdabench.controllers.ppo.layout`)
+    init: str = "scratch"
     device: str = "cpu"
     threads: int = 1
 
@@ -93,6 +98,8 @@ class PPOConfig:
             raise ConfigError(f"ppo: episode_end must be one of {', '.join(EPISODE_ENDS)}, got {self.episode_end!r}")
         if self.lr_schedule not in LR_SCHEDULES:
             raise ConfigError(f"ppo: lr_schedule must be one of {', '.join(LR_SCHEDULES)}, got {self.lr_schedule!r}")
+        if self.init not in INITS:
+            raise ConfigError(f"ppo: init must be one of {', '.join(INITS)}, got {self.init!r}")
         if not isinstance(self.normalize_obs, bool):
             raise ConfigError(f"ppo: normalize_obs must be true or false, got {self.normalize_obs!r}")
         hidden = (self.hidden,) if isinstance(self.hidden, int) else tuple(self.hidden)

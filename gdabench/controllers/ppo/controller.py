@@ -12,18 +12,23 @@ animate a body, and how a resumed run skips bodies it already trained.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
+import torch
+
+from ...batched import box_dims
 from ...environment import Bodies, Controller, Evaluation
 from ...errors import ConfigError
 from ...sdk import BodyBatch, GymBodies, config_signature, report_progress
 from ...torch_runtime import resolve_device
 from .config import PPOConfig
 from .evaluation import evaluate_policies
-from .networks import Stacked
+from .layout import Layout, inherit, layout_of
+from .networks import ActorCritic, Stacked
 from .policy_file import SavedPolicy, load_policy, readable_policy, save_policy
-from .train import TrainResult, deterministic_torch, evaluation_generator, train
+from .train import TrainResult, deterministic_torch, evaluation_generator, initial_networks, train
 
 #: settings that change how fast a policy is trained, not what it becomes
 RUNTIME_SETTINGS = ("device", "threads")
@@ -52,6 +57,8 @@ class PPO(Controller):
         hidden: sizes of the hidden layers of policy and value networks
         lr_schedule: constant (Evolution Gym 2.0) or linear (decays to 0 over the training, Evolution Gym 1.0)
         normalize_obs: normalise observations by running statistics per body (Evolution Gym 1.0)
+        init: scratch (fresh networks, Evolution Gym's) or parent (a child starts from its nearest parent's trained
+            policy, mapped by voxel; docs/controllers/ppo-inherit.md)
         device: cpu, cuda, cuda:N or auto
         threads: torch threads per training
     """
@@ -66,11 +73,20 @@ class PPO(Controller):
         except TypeError as exc:  # an unknown keyword
             raise ConfigError(f"ppo: {exc}") from None
         self.device = resolve_device(self.config.device, "ppo")
+        #: children start from their parents' policies (the harness hands their work directories on)
+        self.inherits = self.config.init == "parent"
+        #: policies trained by this process, by work directory, so that a child reads its parent's without
+        #: loading it (the files on disk are the same bytes)
+        self._kept: dict[str, Inheritable] = {}
 
-    def fingerprint(self, seed: int) -> dict[str, Any]:
-        """What determines the trained policy: a saved policy with the same fingerprint is reused."""
+    def fingerprint(self, seed: int, parent: str | None = None) -> dict[str, Any]:
+        """What determines the trained policy: a saved policy with the same fingerprint is reused.  With
+        ``init=parent`` it names the parent it started from (its work directory's name, the body's hash)."""
         settings = {k: v for k, v in self.config.as_dict().items() if k not in RUNTIME_SETTINGS}
-        return {"settings": settings, "seed": int(seed)}
+        if not self.inherits:
+            del settings["init"]  # scratch policies keep the fingerprint they had before init existed
+            return {"settings": settings, "seed": int(seed)}
+        return {"settings": settings, "seed": int(seed), "parent": parent}
 
     def evaluate(self, make_env: Callable[[], Any], *, seed: int, workdir: Path | None = None) -> Evaluation:
         [result] = self.evaluate_bodies(Bodies([make_env]), seeds=[seed], workdirs=[workdir])
@@ -82,34 +98,99 @@ class PPO(Controller):
         self, bodies: Bodies, *, seeds: Sequence[int], workdirs: Sequence[Path | None]
     ) -> list[Evaluation | BaseException]:
         """Bodies with a policy saved by the same settings and seed replay it; the others train together,
-        in lockstep (see :mod:`~gdabench.controllers.ppo.train`), each saving its best policy."""
+        in lockstep (see :mod:`~gdabench.controllers.ppo.train`), each saving its best policy.  With
+        ``init=parent`` a body starts from the first of its parents (``bodies.parents``) that left a policy
+        trained with the same settings, mapped by voxel (:mod:`~gdabench.controllers.ppo.layout`)."""
+        parents: list[tuple[Path, Inheritable] | None] = [None] * len(bodies)
+        if self.inherits and bodies.parents is not None:
+            parents = [self._parent(p) for p in bodies.parents]
+        # parents unknown (a report replaying one body): any saved policy of these settings and seed is the body's
+        known = bodies.parents is not None
         out: list[Evaluation | BaseException | None] = [
-            self._saved(make_env, seed, workdir) for make_env, seed, workdir in zip(bodies.make_envs, seeds, workdirs)
+            self._saved(make_env, seed, workdir, _name(parent), known)
+            for make_env, seed, workdir, parent in zip(bodies.make_envs, seeds, workdirs, parents)
         ]
         todo = [i for i, result in enumerate(out) if result is None]
-        for i, result in zip(todo, self._train(bodies, todo, seeds)):
+        layouts: dict[int, Layout] = {}
+        start: dict[int, ActorCritic] = {}
+        for i in todo if self.inherits else ():
+            try:
+                layouts[i], fresh = self._fresh(bodies.make_envs[i], seeds[i])
+                parent = parents[i]
+                if parent is not None:
+                    start[i] = inherit(fresh, layouts[i], parent[1].nets, parent[1].layout)
+            except Exception as exc:  # noqa: BLE001 - this body's failure, not the batch's
+                out[i] = exc
+        todo = [i for i in todo if out[i] is None]
+        for i, result in zip(todo, self._train(bodies, todo, seeds, start)):
             if isinstance(result, BaseException):
                 out[i] = result
                 continue
             workdir = workdirs[i]
+            meta = self._meta(result, seeds[i], _name(parents[i]))
+            if i in layouts:
+                meta["layout"] = layouts[i].as_json()
             if workdir is not None:
-                save_policy(workdir, result.nets, self._meta(result, seeds[i]))
-            out[i] = Evaluation(result.reward, self._info(result, len(todo)))
+                save_policy(workdir, result.nets, meta)
+                if self.inherits:
+                    self._keep(workdir, Inheritable(result.nets, layouts[i], meta["trained_with"]["settings"]))
+            out[i] = Evaluation(result.reward, self._info(result, len(todo), i in start))
         return [r for r in out if r is not None]
 
-    def _saved(self, make_env: Callable[[], Any], seed: int, workdir: Path | None) -> Evaluation | BaseException | None:
-        """The replayed score of a policy saved for these settings and seed, or None."""
+    def _saved(
+        self, make_env: Callable[[], Any], seed: int, workdir: Path | None, parent: str | None = None,
+        parent_known: bool = True,
+    ) -> Evaluation | BaseException | None:
+        """The replayed score of a policy saved for these settings, seed (and parent, where known), or None."""
         if workdir is None or not readable_policy(workdir):
             return None
         try:
             saved = load_policy(workdir, self.device)
-            if saved.meta.get("trained_with") != self.fingerprint(seed):
+            trained_with, expected = dict(saved.meta.get("trained_with") or {}), self.fingerprint(seed, parent)
+            if not parent_known:
+                trained_with.pop("parent", None)
+                expected.pop("parent", None)
+            if trained_with != expected:
                 return None
+            if self.inherits and "layout" in saved.meta:
+                self._keep(workdir, _inheritable(load_policy(workdir, "cpu")))
             return Evaluation(replay_policy(saved, make_env), {"replayed": 1})
         except Exception as exc:  # noqa: BLE001 - this body's failure, not the batch's
             return exc
 
-    def _train(self, bodies: Bodies, indices: list[int], seeds: Sequence[int]) -> list[TrainResult | BaseException]:
+    def _parent(self, workdirs: Sequence[Path]) -> tuple[Path, Inheritable] | None:
+        """The first of ``workdirs`` holding a policy trained with these settings (in memory or on disk)."""
+        settings = self.fingerprint(0)["settings"]
+        for workdir in workdirs:
+            kept = self._kept.get(str(workdir))
+            if kept is None and readable_policy(workdir):
+                saved = load_policy(workdir, "cpu")
+                kept = _inheritable(saved) if "layout" in saved.meta else None
+            if kept is not None and kept.settings == settings:
+                return workdir, kept
+        return None
+
+    def _keep(self, workdir: Path, policy: Inheritable) -> None:
+        """Remember a policy children may start from (the most recent :data:`KEPT_POLICIES`)."""
+        self._kept[str(workdir)] = policy
+        while len(self._kept) > KEPT_POLICIES:
+            del self._kept[next(iter(self._kept))]
+
+    def _fresh(self, make_env: Callable[[], Any], seed: int) -> tuple[Layout, ActorCritic]:
+        """A body's layout and the networks it would start from scratch (what :func:`.train.train` makes)."""
+        env = make_env()
+        try:
+            layout = layout_of(env)
+            n_obs, n_act = box_dims(env)
+        finally:
+            env.close()
+        # as train() makes them: its threads (orthogonal initialisation's QR rounds by thread count), its RNG kept
+        with torch.random.fork_rng(devices=[]), deterministic_torch(self.config.threads):
+            return layout, initial_networks(seed, n_obs, n_act, self.config.hidden)
+
+    def _train(
+        self, bodies: Bodies, indices: list[int], seeds: Sequence[int], start: dict[int, ActorCritic] | None = None
+    ) -> list[TrainResult | BaseException]:
         """Train the bodies ``indices`` in one batch; if the batch fails, each alone, so that only a
         failing body's entry is an error."""
         if not indices:
@@ -124,6 +205,7 @@ class PPO(Controller):
             return train(
                 self.config, batch(part), [seeds[i] for i in part], pad=bodies.pad, device=self.device,
                 on_rollout=_progress_notes(len(part), self.config.rollouts * self.config.rollout_steps),
+                initial=[start.get(i) for i in part] if start else None,
             )
 
         try:
@@ -139,9 +221,9 @@ class PPO(Controller):
                 out.append(exc)
         return out
 
-    def _meta(self, result: TrainResult, seed: int) -> dict[str, Any]:
+    def _meta(self, result: TrainResult, seed: int, parent: str | None = None) -> dict[str, Any]:
         return {
-            "trained_with": self.fingerprint(seed),
+            "trained_with": self.fingerprint(seed, parent),
             "reward": result.reward,
             "best_evaluation": result.best_index,
             "evaluations": [{"timesteps": e.timesteps, "scores": e.scores} for e in result.evaluations],
@@ -152,10 +234,11 @@ class PPO(Controller):
             "seconds": result.seconds,
         }
 
-    @staticmethod
-    def _info(result: TrainResult, batch: int) -> dict[str, Any]:
+    def _info(self, result: TrainResult, batch: int, inherited: bool = False) -> dict[str, Any]:
         """Result columns; the batch's training time is shared equally among its bodies."""
+        extra = {"ppo_inherited": int(inherited)} if self.inherits else {}
         return {
+            **extra,
             "env_steps": result.timesteps,
             "ppo_best_at": result.best.timesteps,
             "ppo_unstable_episodes": result.unstable_episodes,
@@ -165,6 +248,28 @@ class PPO(Controller):
             "ppo_eval_seconds": round(result.seconds["evaluate"] / batch, 3),
             "replayed": 0,
         }
+
+
+@dataclass(frozen=True)
+class Inheritable:
+    """A trained policy a child may start from: its networks (on the CPU), its layout and its settings."""
+
+    nets: ActorCritic
+    layout: Layout
+    settings: dict[str, Any]
+
+
+#: trained policies a process keeps in memory for children (a few generations' worth; older ones are read back)
+KEPT_POLICIES = 256
+
+
+def _inheritable(saved: SavedPolicy) -> Inheritable:
+    return Inheritable(saved.nets, Layout.from_json(saved.meta["layout"]), saved.meta["trained_with"]["settings"])
+
+
+def _name(parent: tuple[Path, Inheritable] | None) -> str | None:
+    """How a child's fingerprint names its parent: the parent's work directory's name (the body's hash)."""
+    return None if parent is None else parent[0].name
 
 
 def _progress_notes(bodies: int, timesteps: int) -> Callable[[int], None]:

@@ -169,12 +169,15 @@ def train(
     pad: tuple[int, int] | None = None,
     device: torch.device | str = "cpu",
     on_rollout: Callable[[int], None] | None = None,
+    initial: Sequence[ActorCritic | None] | None = None,
 ) -> list[TrainResult]:
     """Train PPO on the bodies of ``make_batch`` (body ``b`` from ``seeds[b]``); see the module docstring.
 
     ``make_batch(e)`` builds fresh environments, ``e`` per body.  ``pad`` (observations, actions) pads
     the networks beyond the batch's widest body, so that a body learns the same in any batch padded
     alike.  ``on_rollout(timesteps)`` is called after every rollout with each body's timesteps so far.
+    ``initial[b]``, when given and not None, is body ``b``'s networks to start from instead of fresh ones
+    (an inherited policy, :func:`~gdabench.controllers.ppo.layout.inherit`).
     """
     start = time.perf_counter()
     device = torch.device(device)
@@ -186,7 +189,10 @@ def train(
             batch.seed(seeds)
             n_obs, n_act = pad or (max(batch.obs_sizes), max(batch.act_sizes))
             sizes = zip(seeds, batch.obs_sizes, batch.act_sizes)
-            init = [initial_networks(s, o, a, config.hidden) for s, o, a in sizes]
+            given = list(initial) if initial is not None else [None] * len(seeds)
+            init = [
+                g if g is not None else initial_networks(s, o, a, config.hidden) for g, (s, o, a) in zip(given, sizes)
+            ]
             widest = max(n_obs, *batch.obs_sizes), max(n_act, *batch.act_sizes)
             nets = Stacked(init, *widest, device=device, normalize_obs=config.normalize_obs)
             run = _Training(config, nets, batch, seeds, clock, on_rollout)

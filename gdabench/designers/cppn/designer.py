@@ -30,7 +30,7 @@ import numpy as np
 from neat.reporting import ReporterSet
 
 from ...body import Body, invalid_reason
-from ...designer import Designer
+from ...designer import Designer, nearest_first
 from ...errors import ConfigError, DesignerError
 from .config import load_config, read_config_text
 from .painting import cppn_voxels
@@ -63,6 +63,9 @@ class CppnNeat(Designer):
         self._seen: set[str] = set()  # hashes of every body proposed (Evolution Gym's structure_hashes)
         self._proposal: list[tuple[int, Body]] | None = None  # (genome id, body) of the pending ask
         self._info: list[dict[str, Any]] = []
+        #: genome id -> bodies of its parents (neat-python's ``ancestors``), kept from ``tell`` to the next ``ask``
+        self._lineage: dict[int, tuple[Body, ...]] = {}
+        self._parents: list[tuple[Body, ...]] = []
         with self._neat_random():
             self._genomes = self._reproduction.create_new(
                 self._config.genome_type, self._config.genome_config, self.population
@@ -81,6 +84,10 @@ class CppnNeat(Designer):
                 self._proposal, fresh, replaced = self._fill_population()
                 self._species.speciate(self._config, self._genomes, self.generation)
             self._info = [self._row_info(gid, gid in fresh, replaced) for gid, _ in self._proposal]
+            self._parents = [
+                tuple(nearest_first(body, self._lineage.get(gid, ()))) if gid not in fresh else ()
+                for gid, body in self._proposal
+            ]
         return [body for _, body in self._proposal]
 
     def tell(self, bodies: Sequence[Body], rewards: Sequence[float]) -> None:
@@ -103,6 +110,11 @@ class CppnNeat(Designer):
                     )
                 children = self._reproduction.create_new(config.genome_type, config.genome_config, config.pop_size)
             self._species.speciate(config, children, self.generation)
+        told = dict(self._proposal)
+        ancestors = getattr(self._reproduction, "ancestors", {})
+        self._lineage = {
+            gid: tuple(told[p] for p in dict.fromkeys(ancestors.get(gid, ())) if p in told) for gid in children
+        }
         self._genomes = children
         self.generation += 1
         self._proposal = None
@@ -110,6 +122,11 @@ class CppnNeat(Designer):
     def proposal_info(self) -> list[Mapping[str, Any]]:
         """Why CPPN bodies look as they do: the genome's species and size, and replacements."""
         return list(self._info)
+
+    def proposal_parents(self) -> list[Sequence[Body]]:
+        """A genome's parents as neat-python records them (``DefaultReproduction.ancestors``: the two genomes
+        crossed, or one for a copy), as the bodies they painted, nearest first; fresh genomes have none."""
+        return list(self._parents)
 
     def body_of(self, genome: Any) -> Body:
         """The body a genome of this designer paints (e.g. ``designer.body_of(designer.best_genome)``)."""

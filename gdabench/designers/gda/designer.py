@@ -53,7 +53,7 @@ import torch
 
 from ... import cpu
 from ...body import Body, as_body, invalid_reason, mutate, random_body
-from ...designer import Designer, top_k
+from ...designer import Designer, nearest_first, top_k
 from ...errors import GdabenchError
 from ...sdk import config_signature, report_progress
 from ...torch_runtime import torch_threads
@@ -135,6 +135,7 @@ class GenerationalDiffusion(Designer):
         self.generation = 0
         self._seen: set[str] = set()  # every body proposed so far
         self._info: list[dict[str, Any]] = []
+        self._parents: list[tuple[Body, ...]] = []
         self._acceptance = 0.5  # running estimate of the share of samples that are new and valid
 
     def lend_cores(self, borrow: Borrow) -> None:
@@ -155,6 +156,11 @@ class GenerationalDiffusion(Designer):
                 self._info = [{"source": "mutation"} for _ in bodies]
             else:
                 bodies = self._diffusion_generation(training_set, wanted)
+        survivors = [s.body for s in self.survivors]
+        self._parents = [
+            () if info.get("source") in ("initial", "random") else tuple(nearest_first(body, survivors))
+            for body, info in zip(bodies, self._info)
+        ]
         self.generation += 1
         return bodies
 
@@ -169,6 +175,11 @@ class GenerationalDiffusion(Designer):
 
     def proposal_info(self) -> list[Mapping[str, Any]]:
         return list(self._info)
+
+    def proposal_parents(self) -> list[Sequence[Body]]:
+        """A diffusion sample has no single parent: the survivors its model learnt from, nearest (by voxel
+        Hamming distance) first; bodies drawn at random (generation 0, a sampling shortfall) have none."""
+        return list(self._parents)
 
     def _diffusion_generation(self, training_set: list[np.ndarray], wanted: int) -> list[Body]:
         """theta <- TrainDiffusionModel(S); R_1..R_n <- SampleNewGeneration(theta), with the options'
