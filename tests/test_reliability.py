@@ -22,7 +22,7 @@ from typer.testing import CliRunner
 from gdabench.cli import app
 from gdabench.running.faults import POINTS
 from gdabench.results import RunDirectory
-from processes import cli, default_sigint, error_lines, table
+from processes import cli, default_sigint, error_lines, said, table
 
 ARGS = ["compare", "-d", "ga,random", "--env", "faulty", "--budget", "60", "--population", "10", "--seeds", "0,1", "-q", "--no-report"]
 SLOW = {"GDABENCH_FAULTY_DELAY": "0.03"}
@@ -91,7 +91,7 @@ def test_concurrent_resumes_leave_one_writer(tmp_path, faulty_site, reference):
     assert codes == [0, 2, 2], results
     for code, err in results:
         if code == 2:
-            assert "is being written by process" in err and err.count("\n") == 1, err
+            assert "is being written by process" in err and len(said(err)) == 1, err
     assert_whole(out, reference)
 
 
@@ -102,7 +102,7 @@ def test_identical_runs_started_at_once_on_one_directory(tmp_path, faulty_site, 
     assert sorted(code for code, _ in results) == [0, 2], results
     loser = next(err for code, err in results if code == 2)
     # the loser may meet the winner's lock before the winner has written who it is ("another process")
-    assert ("is being written by" in loser or "already exists and is not empty" in loser) and loser.count("\n") == 1
+    assert ("is being written by" in loser or "already exists and is not empty" in loser) and len(said(loser)) == 1
     assert_whole(out, reference)
 
 
@@ -150,7 +150,7 @@ def test_sigterm_is_an_interruption_and_resumes(tmp_path, faulty_site, reference
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 143, err
-    lines = [line for line in err.splitlines() if line.strip()]
+    lines = said(err)
     assert len(lines) == 1 and lines[0].startswith("error: terminated") and f"gdabench compare --resume {out}" in lines[0]
     meta = RunDirectory.open(out).meta
     assert meta["status"] == "interrupted" and "SIGTERM" in meta["error"]
@@ -264,7 +264,7 @@ def test_ctrl_c_pressed_again_and_again_gives_one_line(tmp_path, faulty_site):
         time.sleep(0.003)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
-    assert "Traceback" not in err and [line for line in err.splitlines() if line.strip()][0].startswith("error: interrupted"), err
+    assert "Traceback" not in err and said(err)[0].startswith("error: interrupted"), err
     assert RunDirectory.open(out).meta["status"] == "interrupted"
 
 
@@ -296,7 +296,7 @@ def test_ctrl_c_in_a_terminal_while_workers_start_gives_one_line(tmp_path, fault
             except subprocess.TimeoutExpired:
                 pass
         err = proc.stderr.read()
-        lines = [line for line in err.splitlines() if line.strip()]
+        lines = said(err)
         assert proc.returncode == 130 and "Traceback" not in err and len(lines) == 1 and lines[0].startswith("error: interrupted"), err
 
 
@@ -405,7 +405,7 @@ def test_bad_input_is_one_line_exit_2_and_makes_nothing(tmp_path, args, fragment
     out = tmp_path / "run"
     result = CliRunner().invoke(app, ["compare", *args, "--out", str(out), "-q"], env={"COLUMNS": "300"})
     assert result.exit_code == 2, result.stderr
-    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    lines = said(result.stderr)
     assert len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], result.stderr
     assert not out.exists()
 
@@ -413,7 +413,7 @@ def test_bad_input_is_one_line_exit_2_and_makes_nothing(tmp_path, args, fragment
 def test_evaluate_and_compare_agree_on_bad_input():
     for args in (["--seed", "-1"], ["--env", "walker", "--controller", "open-loop[trials=-1]"]):
         result = CliRunner().invoke(app, ["evaluate", "44444/44444/44444/44444/44444", *args], env={"COLUMNS": "300"})
-        lines = [line for line in result.stderr.splitlines() if line.strip()]
+        lines = said(result.stderr)
         assert result.exit_code == 2 and len(lines) == 1 and lines[0].startswith("error: "), result.stderr
 
 
@@ -423,7 +423,7 @@ def test_output_paths_that_cannot_be_a_run_directory(tmp_path):
     cases = {a_file: "exists and is not a directory", a_file / "run": "which is not a directory", Path("/proc/gdabench-run"): "cannot create"}
     for out, fragment in cases.items():
         result = CliRunner().invoke(app, ["compare", "-d", "random", "--out", str(out), "-q"], env={"COLUMNS": "300"})
-        lines = [line for line in result.stderr.splitlines() if line.strip()]
+        lines = said(result.stderr)
         assert result.exit_code == 2 and len(lines) == 1 and fragment in lines[0], (out, result.stderr)
 
 
@@ -458,7 +458,7 @@ def budget_abc(out: Path) -> None:
 def test_a_damaged_run_is_one_line_not_an_internal_error(tmp_path, damage, command, code, fragment):
     out = damaged(tmp_path, damage)
     result = CliRunner().invoke(app, [*command, str(out / "run.json" if "--config" in command else out)], env={"COLUMNS": "300"})
-    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    lines = said(result.stderr)
     assert result.exit_code == code and fragment in lines[0] and len(lines) == 1, result.stderr
     assert "internal error" not in result.stderr
 
@@ -481,5 +481,5 @@ def test_an_error_is_the_first_line_on_stderr(tmp_path):
 def test_usage_errors_are_one_line_too():
     for args in (["compare", "--budget", "abc"], ["compare", "--nope"], ["frobnicate"]):
         result = subprocess.run([sys.executable, "-m", "gdabench", *args], capture_output=True, text=True, env=dict(os.environ, COLUMNS="300"))
-        lines = [line for line in result.stderr.splitlines() if line.strip()]
+        lines = said(result.stderr)
         assert result.returncode == 2 and len(lines) == 1 and lines[0].startswith("error: "), result.stderr
