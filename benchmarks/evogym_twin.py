@@ -18,10 +18,11 @@ import io
 import json
 import math
 import random
+import sys
 import time
 import warnings
 from pathlib import Path
-from typing import Any, Callable, Iterator, Protocol, Sequence
+from typing import Any, Callable, Iterable, Iterator, Protocol, Sequence
 
 import numpy as np
 from walker_fidelity import TRACE_EVERY
@@ -73,6 +74,23 @@ def evogym_installed() -> bool:
     except ImportError:
         return False
     return True
+
+
+def refuse_unknown(kind: str, names: list[str], known: Iterable[str]) -> None:
+    """The scripts' command lines: an unknown task (or gait) is one ``error:`` line and exit 2."""
+    known = list(known)
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        print(f"error: unknown {kind} {unknown[0]!r}; {kind}s: {', '.join(known)}", file=sys.stderr)
+        raise SystemExit(2)
+
+
+def require_evogym() -> None:
+    """Exit 2 with one ``error:`` line where Evolution Gym cannot be imported."""
+    if not evogym_installed():
+        print("error: Evolution Gym is not installed; run this in the venv that has it (/work/venv-evogym)",
+              file=sys.stderr)
+        raise SystemExit(2)
 
 
 class EvogymEnv:

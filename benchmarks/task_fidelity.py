@@ -28,7 +28,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import sys
 import time
 from pathlib import Path
 from typing import Any, Callable, Sequence
@@ -42,9 +41,10 @@ from evogym_twin import (
     NudgedEvogym,
     Rows,
     actuators,
-    evogym_installed,
     play,
     play_batch,
+    refuse_unknown,
+    require_evogym,
     rounded,
 )
 from task_speed import task_bodies
@@ -183,15 +183,9 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     tasks = [t for t in args.tasks.split(",") if t] or list(CATALOG)
     gaits = args.gaits.split(",")
-    for kind, names, known in (("task", tasks, CATALOG), ("gait", gaits, GAITS)):
-        unknown = [n for n in names if n not in known]
-        if unknown:
-            print(f"error: unknown {kind} {unknown[0]!r}; {kind}s: {', '.join(known)}", file=sys.stderr)
-            raise SystemExit(2)
-    if not evogym_installed():
-        print("error: Evolution Gym is not installed; run this in the venv that has it (/work/venv-evogym)",
-              file=sys.stderr)
-        raise SystemExit(2)
+    refuse_unknown("task", tasks, CATALOG)
+    refuse_unknown("gait", gaits, GAITS)
+    require_evogym()
     numba.set_num_threads(1)
     rows = Rows(args.rows)
     settings: dict[str, Any] = {"bodies": args.bodies, "gaits": gaits, "seed": args.seed, "steps": args.steps}

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from pathlib import Path
 from typing import Any, Sequence
@@ -37,8 +36,9 @@ from evogym_twin import (
     Twin,
     VoxelEnv,
     actuators,
-    evogym_installed,
     gait_actions,
+    refuse_unknown,
+    require_evogym,
     rounded,
 )
 from task_speed import task_bodies
@@ -179,14 +179,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--trace", metavar="BODY", help="print one body's gaps step by step (with one --tasks id)")
     args = parser.parse_args(argv)
     tasks = [t for t in args.tasks.split(",") if t] or list(CATALOG)
-    unknown = [t for t in tasks if t not in CATALOG]
-    if unknown:
-        print(f"error: unknown task {unknown[0]!r}; tasks: {', '.join(CATALOG)}", file=sys.stderr)
-        raise SystemExit(2)
-    if not evogym_installed():
-        print("error: Evolution Gym is not installed; run this in the venv that has it (/work/venv-evogym)",
-              file=sys.stderr)
-        raise SystemExit(2)
+    refuse_unknown("task", tasks, CATALOG)
+    require_evogym()
     numba.set_num_threads(1)
     if args.trace:
         trace(tasks[0], gdabench.Body.from_text(args.trace), args.steps, NudgedEvogym if args.control else VoxelEnv)

@@ -33,7 +33,17 @@ from typing import Any, Callable, Sequence
 
 import numba
 import numpy as np
-from evogym_twin import Episode, EvogymEnv, Rows, actuators, evogym_installed, play, play_batch, rounded
+from evogym_twin import (
+    Episode,
+    EvogymEnv,
+    Rows,
+    actuators,
+    evogym_installed,
+    play,
+    play_batch,
+    refuse_unknown,
+    rounded,
+)
 from task_speed import task_bodies
 from walker_fidelity import actions_for
 from walker_stability import step_problems
@@ -166,10 +176,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", type=Path, help="write every task's figures here (JSON)")
     args = parser.parse_args(argv)
     tasks = [t for t in args.tasks.split(",") if t] or list(CATALOG)
-    unknown = [t for t in tasks if t not in CATALOG]
-    if unknown:
-        print(f"error: unknown task {unknown[0]!r}; tasks: {', '.join(CATALOG)}", file=sys.stderr)
-        raise SystemExit(2)
+    refuse_unknown("task", tasks, CATALOG)
     if not args.no_evogym and not evogym_installed():
         print("error: Evolution Gym is not installed; run this in the venv that has it (/work/venv-evogym), "
               "or pass --no-evogym", file=sys.stderr)

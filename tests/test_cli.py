@@ -12,6 +12,8 @@ from gdabench.cli import app
 from gdabench.errors import ConfigError
 from gdabench.experiment.config import parse_seeds
 
+from support.processes import said
+
 runner = CliRunner()
 
 
@@ -185,7 +187,7 @@ def test_bad_input_is_one_line_and_nonzero(tmp_path, args, fragment):
     out = tmp_path / "run"
     result = invoke(*args, "--out", str(out)) if args[0] == "compare" else invoke(*args)
     assert result.exit_code == 2
-    lines = [ln for ln in result.stderr.splitlines() if ln.strip()]
+    lines = said(result.stderr)  # the seeds warning comes before the plan is checked (issue 54 resolves it once)
     assert len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], result.stderr
     assert "Traceback" not in result.stdout + result.stderr
     assert not out.exists()

@@ -472,12 +472,16 @@ def test_the_evogym_task_page_shows_the_committed_task_outputs():
             assert unstable == f"{len(s['unstable_bodies_voxel'])} / {len(s['unstable_bodies_evogym'])}"
         else:
             assert unstable == "not run"
-        assert ratio == f"{speed[task]['voxel'] / speed[task]['evogym']:.1f}x"
+        if task in speed:
+            assert ratio == f"{speed[task]['voxel'] / speed[task]['evogym']:.1f}x"
+        else:  # Evolution Gym could not build the task's world in the speed run (Traverser-v0)
+            assert ratio == "not run"
         for goal, missed in (("Spearman", rho < 0.95), ("sign agreement", sign < 0.95),
-                             ("10x speed", speed[task]["voxel"] < 10 * speed[task]["evogym"])):
+                             ("10x speed", task in speed and speed[task]["voxel"] < 10 * speed[task]["evogym"])):
             if missed:
                 low[goal].add(task)
-    said = {line.split(":")[0]: set(re.findall(r"`([^`]+)`", line.split("miss it")[1]) if "miss it" in line else [])
+    said = {line.split(":")[0]: set(re.findall(r"`([^`]+)`", line.split("miss it")[1].split("; not measured")[0])
+                                          if "miss it" in line else [])
             for line in hooks.evogym_task_misses(ROOT).splitlines() if line.startswith("* ")}
     assert said["* held-out Spearman >= 0.95"] == low["Spearman"]
     assert said["* held-out sign agreement >= 95%"] == low["sign agreement"]

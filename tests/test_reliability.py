@@ -23,7 +23,7 @@ from gdabench.cli import app
 from gdabench.faults import POINTS
 from gdabench.results import RunDirectory
 
-from support.processes import cli, default_sigint, error_lines, table
+from support.processes import cli, default_sigint, error_lines, said, table
 
 ARGS = [
     "compare",
@@ -116,7 +116,7 @@ def test_concurrent_resumes_leave_one_writer(tmp_path, faulty_site, reference):
     assert codes == [0, 2, 2], results
     for code, err in results:
         if code == 2:
-            assert "is being written by process" in err and err.count("\n") == 1, err
+            assert "is being written by process" in err and len(said(err)) == 1, err
     assert_whole(out, reference)
 
 
@@ -127,7 +127,7 @@ def test_identical_runs_started_at_once_on_one_directory(tmp_path, faulty_site, 
     assert sorted(code for code, _ in results) == [0, 2], results
     loser = next(err for code, err in results if code == 2)
     # the loser may meet the winner's lock before the winner has written who it is ("another process")
-    assert ("is being written by" in loser or "already exists and is not empty" in loser) and loser.count("\n") == 1
+    assert ("is being written by" in loser or "already exists and is not empty" in loser) and len(said(loser)) == 1
     assert_whole(out, reference)
 
 
@@ -181,7 +181,7 @@ def test_sigterm_is_an_interruption_and_resumes(tmp_path, faulty_site, reference
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 143, err
-    lines = [line for line in err.splitlines() if line.strip()]
+    lines = said(err)
     assert (
         len(lines) == 1 and lines[0].startswith("error: terminated") and f"gdabench compare --resume {out}" in lines[0]
     )
@@ -331,9 +331,7 @@ def test_ctrl_c_pressed_again_and_again_gives_one_line(tmp_path, faulty_site):
         time.sleep(0.003)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
-    assert "Traceback" not in err and [line for line in err.splitlines() if line.strip()][0].startswith(
-        "error: interrupted"
-    ), err
+    assert "Traceback" not in err and said(err)[0].startswith("error: interrupted"), err
     assert RunDirectory.open(out).meta["status"] == "interrupted"
 
 
@@ -394,7 +392,7 @@ def test_ctrl_c_in_a_terminal_while_workers_start_gives_one_line(tmp_path, fault
             except subprocess.TimeoutExpired:
                 pass
         err = proc.stderr.read()
-        lines = [line for line in err.splitlines() if line.strip()]
+        lines = said(err)
         assert (
             proc.returncode == 130
             and "Traceback" not in err
@@ -552,7 +550,7 @@ def test_bad_input_is_one_line_exit_2_and_makes_nothing(tmp_path, args, fragment
     out = tmp_path / "run"
     result = CliRunner().invoke(app, ["compare", *args, "--out", str(out), "-q"], env={"COLUMNS": "300"})
     assert result.exit_code == 2, result.stderr
-    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    lines = said(result.stderr)
     assert len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], result.stderr
     assert not out.exists()
 
@@ -560,7 +558,7 @@ def test_bad_input_is_one_line_exit_2_and_makes_nothing(tmp_path, args, fragment
 def test_evaluate_and_compare_agree_on_bad_input():
     for args in (["--seed", "-1"], ["--env", "walker", "--controller", "open-loop[trials=-1]"]):
         result = CliRunner().invoke(app, ["evaluate", "44444/44444/44444/44444/44444", *args], env={"COLUMNS": "300"})
-        lines = [line for line in result.stderr.splitlines() if line.strip()]
+        lines = said(result.stderr)
         assert result.exit_code == 2 and len(lines) == 1 and lines[0].startswith("error: "), result.stderr
 
 
@@ -574,7 +572,7 @@ def test_output_paths_that_cannot_be_a_run_directory(tmp_path):
     }
     for out, fragment in cases.items():
         result = CliRunner().invoke(app, ["compare", "-d", "random", "--out", str(out), "-q"], env={"COLUMNS": "300"})
-        lines = [line for line in result.stderr.splitlines() if line.strip()]
+        lines = said(result.stderr)
         assert result.exit_code == 2 and len(lines) == 1 and fragment in lines[0], (out, result.stderr)
 
 
@@ -634,7 +632,7 @@ def test_a_damaged_run_is_one_line_not_an_internal_error(tmp_path, damage, comma
     result = CliRunner().invoke(
         app, [*command, str(out / "run.json" if "--config" in command else out)], env={"COLUMNS": "300"}
     )
-    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    lines = said(result.stderr)
     assert result.exit_code == code and fragment in lines[0] and len(lines) == 1, result.stderr
     assert "internal error" not in result.stderr
 
@@ -671,5 +669,5 @@ def test_usage_errors_are_one_line_too():
             text=True,
             env=dict(os.environ, COLUMNS="300"),
         )
-        lines = [line for line in result.stderr.splitlines() if line.strip()]
+        lines = said(result.stderr)
         assert result.returncode == 2 and len(lines) == 1 and lines[0].startswith("error: "), result.stderr
