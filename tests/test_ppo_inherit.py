@@ -10,7 +10,6 @@ import numpy as np
 import pandas as pd
 import pytest
 import torch
-from processes import cli, table
 
 from gdabench import make_designer
 from gdabench.body import as_body
@@ -23,6 +22,8 @@ from gdabench.designers.ga import GeneticAlgorithm
 from gdabench.errors import ConfigError
 from gdabench.results import RunDirectory
 from gdabench.torch_runtime import torch_threads
+
+from support.processes import cli, table
 
 PARENT = "00000/44444/44444/40004/40004"
 #: PARENT with its top-left actuator (row 1, column 0) made rigid and a new actuator at (0, 2)
@@ -204,8 +205,23 @@ def test_a_child_learns_the_same_from_its_parent_in_memory_and_read_back_from_di
 CONTROLLER = "ppo[timesteps=128,init=parent]"
 #: what differs between identical runs besides the harness's own timings
 PPO_TIMES = ["ppo_train_seconds", "ppo_eval_seconds"]
-ARGS = ["compare", "-d", "ga", "--env", "walker", "--controller", CONTROLLER, "--budget", "6", "--population", "3",
-        "--jobs", "1", "-q", "--no-report"]
+ARGS = [
+    "compare",
+    "-d",
+    "ga",
+    "--env",
+    "walker",
+    "--controller",
+    CONTROLLER,
+    "--budget",
+    "6",
+    "--population",
+    "3",
+    "--jobs",
+    "1",
+    "-q",
+    "--no-report",
+]
 
 
 def test_inheriting_runs_are_reproducible_and_resume_after_a_kill_with_the_same_numbers(tmp_path):
@@ -213,11 +229,13 @@ def test_inheriting_runs_are_reproducible_and_resume_after_a_kill_with_the_same_
     read back from the run directory after the kill); the uninterrupted run comes from an experiment file that
     selects the controller, the killed and resumed one from the command line: both give the same table."""
     experiment = tmp_path / "inherit.toml"
-    experiment.write_text(f'designers = ["ga"]\nenv = "walker"\ncontroller = "{CONTROLLER}"\npopulation = 3\n'
-                          'budget = 6\nseeds = "0"\n')
+    experiment.write_text(
+        f'designers = ["ga"]\nenv = "walker"\ncontroller = "{CONTROLLER}"\npopulation = 3\nbudget = 6\nseeds = "0"\n'
+    )
     whole = tmp_path / "whole"
-    done = cli("compare", "--config", str(experiment), "--jobs", "1", "-q", "--no-report", "--out", str(whole),
-               site=tmp_path)
+    done = cli(
+        "compare", "--config", str(experiment), "--jobs", "1", "-q", "--no-report", "--out", str(whole), site=tmp_path
+    )
     assert done.returncode == 0, done.stderr
     reference = table(whole, drop=PPO_TIMES)
     assert reference["controller"].unique().tolist() == [CONTROLLER]
