@@ -73,6 +73,20 @@ def test_tests_and_summary_use_the_reevaluated_best(noisy_run):
     assert per_body["replicates"].eq(3).all() and per_body["sd"].gt(0).all()  # the noise per body
 
 
+def test_a_report_of_one_body_per_trial_says_so_and_shows_no_change_of_body(tmp_path, reg):
+    """With one body re-evaluated per trial (the committed walker run's 1x3), the report does not speak of "1 best
+    bodies" and does not count trials whose best body changed: it cannot change."""
+    exp = Experiment((PluginChoice("ga"),), PluginChoice("noisy"), population=5, budget=10, seeds=(0, 1),
+                     reevaluate=Reevaluation(top=1, seeds=2))  # fmt: skip
+    run = compare(exp, tmp_path / "run", reg=reg)
+    text = (write_report(run.path, animations=False).out / "summary.md").read_text()
+    assert "each trial's best body was trained again under 2 further seeds (" in text
+    assert "1 best bodies" not in text
+    section = text[text.index("Raw and re-evaluated best per designer") :]
+    row = next(line for line in section.splitlines() if line.startswith("| ga |"))
+    assert row.rstrip(" |").endswith("| -"), row
+
+
 def test_top_bodies_are_distinct_and_best_first():
     trial = pd.DataFrame({"body": ["a", "b", "a", "c", "d"], "body_hash": ["a", "b", "a", "c", "d"],
                           "reward": [5.0, 7.0, 5.0, 7.0, np.nan], "status": ["ok", "ok", "duplicate", "ok", "error"],

@@ -63,7 +63,7 @@ def bodies_figure(
     scale: int = 18,
     dpi: int = 100,
 ) -> Figure:
-    """A grid of body pictures, a caption above each, drawn as one image (fast for many bodies).
+    """A grid of body pictures, a caption above each (one or more lines), drawn as one image (fast for many bodies).
 
     ``None`` leaves a cell empty; with ``row_labels`` each row of ``ncols`` cells gets a heading.
     """
@@ -74,7 +74,8 @@ def bodies_figure(
     h, w = shapes.pop() if shapes else (5, 5)
     ncols = max(1, min(ncols, n)) if row_labels is None else max(1, ncols)
     nrows = max(1, math.ceil(n / ncols))
-    pad, caption, heading = 12, 16, (18 if row_labels else 0)
+    lines = max((text.count("\n") + 1 for text in captions), default=1)
+    pad, caption, heading = 12, 7 + 9 * lines, (18 if row_labels else 0)
     cell_w, cell_h = w * scale + pad, heading + h * scale + caption + pad
     canvas = np.full((nrows * cell_h + pad, ncols * cell_w + pad, 3), 255, dtype=np.uint8)
     origins = []

@@ -50,7 +50,7 @@ from .content import Figure, Report, Section, Table
 from .diversity import NEAR_COPY, SURVIVORS, diversity
 from .html import render_html
 from .markdown import render_markdown
-from .reevaluated import section as reevaluated_section
+from .reevaluated import section as reevaluated_section, which_bodies
 from .staging import staged_folder
 from .stat_pages import statistics_sections
 from .tables import summary_cells
@@ -152,8 +152,9 @@ def _facts(
         ]
     done = meta.get("reevaluated") or {}
     if done:
-        facts.append(("re-evaluation", f"the {done.get('top')} best bodies of each trial, {done.get('seeds')} further "
-                                       f"training seeds each ({done.get('wall_seconds', 0):.0f} s)"))  # fmt: skip
+        facts.append(("re-evaluation", f"the {which_bodies(int(done.get('top', 0)))} of each trial, "
+                                       f"{done.get('seeds')} further training seeds each "
+                                       f"({done.get('wall_seconds', 0):.0f} s)"))  # fmt: skip
     if primary is not None:
         when = "named before the run" if experiment is not None and experiment.primary == primary else (
             "named for this report, after the run")  # fmt: skip
@@ -344,7 +345,7 @@ def _body_figures(
     for d in designers:
         top = _best_bodies(frame, d, BEST_BODIES)
         row = [
-            (_body(r["body"]), f"{r['reward']:.4g} (seed {r['seed']}, #{r['n_evals']})", int(r["seed"]))
+            (_body(r["body"]), f"{r['reward']:.4g}\nseed {r['seed']}, #{r['n_evals']}", int(r["seed"]))
             for _, r in top.iterrows()
         ]
         row = [c for c in row if c[0] is not None]
