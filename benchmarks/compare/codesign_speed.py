@@ -22,7 +22,7 @@ Bodies are drawn at random (valid 5x5 bodies, seeded); the single-body arms trai
 
 Usage::
 
-    python benchmarks/codesign_speed.py --timesteps 2560 --bodies 25 --repeats 3 \\
+    python benchmarks/compare/codesign_speed.py --timesteps 2560 --bodies 25 --repeats 3 \\
         --before /tmp/before --evogym-python /work/venv-evogym/bin/python
 """
 

@@ -1,8 +1,8 @@
 """Record Evolution Gym 2.0 trajectories for the voxel engine's parity tests (run in the plugin's venv).
 
     bash plugins/gdabench-evogym/install.sh /tmp/venv-evogym
-    /tmp/venv-evogym/bin/python benchmarks/evogym_record.py tests/fixtures/voxel_parity.npz
-    /tmp/venv-evogym/bin/python benchmarks/evogym_record.py tests/fixtures/tasks --tasks [TASK ...]
+    /tmp/venv-evogym/bin/python benchmarks/compare/evogym_record.py tests/fixtures/voxel_parity.npz
+    /tmp/venv-evogym/bin/python benchmarks/compare/evogym_record.py tests/fixtures/tasks --tasks [TASK ...]
 
 ``--tasks``: one file per task, ``<folder>/<task>.npz`` (every task of Evolution Gym 2.0, or those named):
 for each of :data:`TASK_BODIES`, one episode's first

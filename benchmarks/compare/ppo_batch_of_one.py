@@ -9,7 +9,7 @@ one lockstep batch, which is bit for bit what each would learn as a batch of one
 
 Usage::
 
-    python benchmarks/ppo_batch_of_one.py --before /tmp/before --timesteps 20000 --seeds 0,1,2
+    python benchmarks/compare/ppo_batch_of_one.py --before /tmp/before --timesteps 20000 --seeds 0,1,2
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """TorchRL's ``ClipPPOLoss`` against ``ppo``'s hand-written lockstep loss: the same numbers, and their cost.
 
-    python benchmarks/ppo_clip_loss.py                       # all three parts
-    python benchmarks/ppo_clip_loss.py --parts check,update  # without the (minutes-long) generations
+    python benchmarks/compare/ppo_clip_loss.py                       # all three parts
+    python benchmarks/compare/ppo_clip_loss.py --parts check,update  # without the (minutes-long) generations
 
 ``ClipPPOLoss`` runs once per body under ``torch.vmap``, over the stacked per-body parameters of ``ppo``'s
 networks (tensordict's functional idiom: the parameters as a TensorDict with the bodies as its batch
@@ -19,7 +19,7 @@ Parts:
   walker-like sizes; prints the largest absolute difference;
 * ``update``: CPU time of one lockstep update step (loss, backward, clipping, Adam; 25 bodies, 4 samples
   each: Evolution Gym's minibatch), the two arms interleaved, median over rounds;
-* ``generation``: CPU time of a co-design generation's training (``benchmarks/codesign_speed.py``'s
+* ``generation``: CPU time of a co-design generation's training (``benchmarks/compare/codesign_speed.py``'s
   lockstep arm: 25 random 5x5 bodies, ``--timesteps`` each, on the voxel walker), each arm in a fresh
   process on one core, interleaved; the TorchRL arm swaps ``LockstepUpdate.losses`` for the one here.
 """

@@ -17,7 +17,7 @@ machine load.  Printed per run and as medians:
 
 Usage (needs the ``bench`` extra: ``pip install -e .[bench]``)::
 
-    python benchmarks/ppo_vs_sb3.py --timesteps 30000 --seeds 0,1,2 --repeats 2
+    python benchmarks/compare/ppo_vs_sb3.py --timesteps 30000 --seeds 0,1,2 --repeats 2
 """
 
 from __future__ import annotations

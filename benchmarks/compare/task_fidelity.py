@@ -19,7 +19,7 @@ Evolution Gym's episodes are written to ``--rows`` (JSON lines) as each finishes
 (one batch of all its episodes); a restart reads them back and plays only what is missing.  Run it in the
 venv that has both simulators::
 
-    PYTHONPATH=. /work/venv-evogym/bin/python benchmarks/task_fidelity.py --bodies 8 \\
+    PYTHONPATH=. /work/venv-evogym/bin/python benchmarks/compare/task_fidelity.py --bodies 8 \\
         --rows runs/fidelity.jsonl --out docs/benchmarks/output/task-fidelity.json
 """
 
@@ -153,7 +153,7 @@ def write_outputs(out: Path, results: list[dict[str, Any]], settings: dict[str, 
     lines = ",\n".join(json.dumps({k: rounded(r[k], 4) for k in ("task", "difficulty", "steps", "parts", "error")
                                    if k in r},
                                   separators=(",", ":")) for r in results)
-    out.write_text('{"command":"benchmarks/task_fidelity.py","settings":%s,"goal":%s,"tasks":[\n%s\n]}\n' % (
+    out.write_text('{"command":"benchmarks/compare/task_fidelity.py","settings":%s,"goal":%s,"tasks":[\n%s\n]}\n' % (
         json.dumps(settings), json.dumps({"spearman": GOAL_SPEARMAN, "sign_agreement": GOAL_SIGN}), lines))
     with out.with_suffix(".csv").open("w", newline="") as f:
         writer = csv.writer(f)

@@ -13,7 +13,7 @@ and the limit (over bodies), and the first step where the gap of positions or ob
 Run it in the venv that has Evolution Gym and gdabench (resumable: finished tasks are read back from
 ``--rows``)::
 
-    PYTHONPATH=. /work/venv-evogym/bin/python benchmarks/task_parity.py \\
+    PYTHONPATH=. /work/venv-evogym/bin/python benchmarks/compare/task_parity.py \\
         --rows runs/parity.jsonl --out docs/benchmarks/output/task-parity.json
 """
 
@@ -213,7 +213,7 @@ def main(argv: list[str] | None = None) -> None:
         results.append(row)
     if args.out:
         lines = ",\n".join(json.dumps(rounded(r["result"], 3), separators=(",", ":")) for r in results)
-        args.out.write_text('{"command":"benchmarks/task_parity.py","settings":%s,"checkpoints":%s,"tasks":[\n%s\n]}\n'
+        args.out.write_text('{"command":"benchmarks/compare/task_parity.py","settings":%s,"checkpoints":%s,"tasks":[\n%s\n]}\n'
                             % (json.dumps(settings), json.dumps(list(CHECKPOINTS)), lines))
 
 

@@ -12,7 +12,7 @@ Memory per environment: the batch's state and observation arrays, plus its table
 
 Run it in the Evolution Gym plugin's venv (numba and Evolution Gym together)::
 
-    /tmp/venv-evogym/bin/python benchmarks/task_speed.py --out docs/benchmarks/output/task-speed.json
+    /tmp/venv-evogym/bin/python benchmarks/compare/task_speed.py --out docs/benchmarks/output/task-speed.json
 """
 
 from __future__ import annotations
@@ -144,7 +144,7 @@ def main() -> None:
         print(f"| {name} | {row['difficulty']} | {row['voxel']:,.0f} | {row['evogym']:,.0f} | {row['ratio']:.1f}x "
               f"| {memory / 1e3:.0f} |", flush=True)
         if args.out:
-            args.out.write_text(json.dumps({"command": "benchmarks/task_speed.py", "batch": args.batch,
+            args.out.write_text(json.dumps({"command": "benchmarks/compare/task_speed.py", "batch": args.batch,
                                             "seconds": args.seconds, "repeats": args.repeats, "clock": args.clock,
                                             "load_at_start": os.getloadavg()[0], "rows": rows}, indent=1) + "\n")
 

@@ -15,7 +15,7 @@ only.
 Evolution Gym's episodes are written to ``--rows`` (JSON lines) as each finishes, the voxel engine's per
 task; a restart reads them back.  Run it in the venv that has both simulators::
 
-    PYTHONPATH=. /work/venv-evogym/bin/python benchmarks/task_stability.py --bodies 20 \\
+    PYTHONPATH=. /work/venv-evogym/bin/python benchmarks/compare/task_stability.py --bodies 20 \\
         --rows runs/stability.jsonl --out docs/benchmarks/output/task-stability.json
 
 ``--no-evogym`` runs the voxel engine's checks alone (its venv needs no Evolution Gym).
@@ -205,7 +205,7 @@ def main(argv: list[str] | None = None) -> None:
               flush=True)
     if args.out:
         lines = ",\n".join(json.dumps(rounded(r, 4), separators=(",", ":")) for r in results)
-        args.out.write_text('{"command":"benchmarks/task_stability.py","settings":%s,"tasks":[\n%s\n]}\n'
+        args.out.write_text('{"command":"benchmarks/compare/task_stability.py","settings":%s,"tasks":[\n%s\n]}\n'
                             % (json.dumps(settings), lines))
 
 

@@ -8,8 +8,8 @@ thread (env steps/s per core); the last table uses every core.  Memory is the by
 state, tables and per-step outputs.  With Evolution Gym installed (run it in the plugin's venv), it
 is timed on the same 5x5 bodies, one environment at a time, interleaved with ours.
 
-    python benchmarks/voxel_speed.py                                  # the docs' table
-    python benchmarks/voxel_speed.py --shapes 5x5 --batches 64 --repeats 5
+    python benchmarks/compare/voxel_speed.py                                  # the docs' table
+    python benchmarks/compare/voxel_speed.py --shapes 5x5 --batches 64 --repeats 5
 """
 
 from __future__ import annotations

@@ -20,10 +20,10 @@ gap between the two centre-of-mass x trajectories (in voxels), and the unstable 
 simulator (and those unstable in one only).  The last lines give both simulators' env steps per
 second, timed side by side in this run (episodes interleaved), and their ratio.
 
-    python benchmarks/walker_fidelity.py                           # the full benchmark
-    python benchmarks/walker_fidelity.py --engine pymunk           # the pymunk walker (~30 min)
-    python benchmarks/walker_fidelity.py --random-bodies 20 --gaits wave20,random
-    python benchmarks/walker_fidelity.py --evogym-cache /tmp/evo.jsonl --part calibration --physics friction=2.0
+    python benchmarks/compare/walker_fidelity.py                           # the full benchmark
+    python benchmarks/compare/walker_fidelity.py --engine pymunk           # the pymunk walker (~30 min)
+    python benchmarks/compare/walker_fidelity.py --random-bodies 20 --gaits wave20,random
+    python benchmarks/compare/walker_fidelity.py --evogym-cache /tmp/evo.jsonl --part calibration --physics friction=2.0
 
 ``--evogym-cache FILE`` stores Evolution Gym's episodes (JSON lines) and reuses them on later
 runs, for calibration sweeps; speeds are printed only for episodes simulated in this run.

@@ -9,10 +9,10 @@ episodes that ended unstable (-3, terminated) with the reasons, and checks that 
 slipped through undetected: no exception, no NaN, every observation inside the observation
 space, no step moving the centre of mass implausibly far, every unstable step rewarded -3.
 
-    python benchmarks/walker_stability.py --bodies 1000 --steps 500 --seed 0
-    python benchmarks/walker_stability.py --bodies 1000 --actions open-loop
-    python benchmarks/walker_stability.py --bodies 200 --engine pymunk --physics substeps=4
-    python benchmarks/walker_stability.py --bodies 100 --actions open-loop --engine evogym
+    python benchmarks/compare/walker_stability.py --bodies 1000 --steps 500 --seed 0
+    python benchmarks/compare/walker_stability.py --bodies 1000 --actions open-loop
+    python benchmarks/compare/walker_stability.py --bodies 200 --engine pymunk --physics substeps=4
+    python benchmarks/compare/walker_stability.py --bodies 100 --actions open-loop --engine evogym
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Transfer check of a walker run: each designer's best body per seed, trained again in Evolution Gym itself.
 
     plugins/gdabench-evogym/install.sh /work/venv-evogym          # once: Evolution Gym's own simulator
-    python benchmarks/walker_transfer.py results/reference/walker --python /work/venv-evogym/bin/python
+    python benchmarks/compare/walker_transfer.py results/reference/walker --python /work/venv-evogym/bin/python
 
 Every (designer, seed) trial's best body is scored with ``gdabench evaluate`` on ``evogym/Walker-v0``
 with the run's controller and the trial's seed (the same PPO at the same budget, Evolution Gym's

@@ -4,9 +4,9 @@ Prints, for each executor, evaluations per second with 1 and with 2 workers on a
 environment (the speed-up target is 1.8x on 2 cores), and the time per evaluation of each
 executor on ``simple``, where evaluating costs nothing and only the executor's overhead is left.
 
-    python benchmarks/bench_scale.py                                  # CPU-bound stand-in (cpu-burn)
-    python benchmarks/bench_scale.py --env walker --controller open-loop
-    python benchmarks/bench_scale.py --executors process --repeats 5
+    python benchmarks/figures/bench_scale.py                                  # CPU-bound stand-in (cpu-burn)
+    python benchmarks/figures/bench_scale.py --env walker --controller open-loop
+    python benchmarks/figures/bench_scale.py --executors process --repeats 5
 
 Bodies are evaluated in batches of ``--population`` as the harness does (one batch per
 generation), after a warm-up batch that starts the workers; figures are medians over

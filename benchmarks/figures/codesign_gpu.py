@@ -9,7 +9,8 @@ threads); ``evogym2`` is Evolution Gym 2.0's settings (gdabench's default: one e
 (Evolution Gym's sampler, seeded).  Evaluation is left out (one at the end, not reached when an arm is
 stopped by its time limit).
 
-    python benchmarks/codesign_gpu.py --arms cuda:evogym2,cuda:evogym1,cpu:evogym2 --minutes 1.5 --out gpu-ppo.json
+    python benchmarks/figures/codesign_gpu.py --arms cuda:evogym2,cuda:evogym1,cpu:evogym2 --minutes 1.5 \
+        --out gpu-ppo.json
 """
 
 from __future__ import annotations

@@ -22,9 +22,9 @@ known load and say so.  ``--json`` writes every row.
 
 Usage::
 
-    python benchmarks/controllers_compare.py --out /tmp/controllers --budgets 12500,50000,200000
-    python benchmarks/controllers_compare.py --out /tmp/controllers --tasks Walker-v0,BridgeWalker-v0,Climber-v0
-    python benchmarks/controllers_compare.py --out /tmp/smoke --budgets 128 --population 3   # a smoke test
+    python benchmarks/figures/controllers_compare.py --out /tmp/controllers --budgets 12500,50000,200000
+    python benchmarks/figures/controllers_compare.py --out /tmp/controllers --tasks Walker-v0,BridgeWalker-v0,Climber-v0
+    python benchmarks/figures/controllers_compare.py --out /tmp/smoke --budgets 128 --population 3   # a smoke test
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """How much one other busy process slows a co-design run, with the engine's threads as gdabench chooses
 them (``GDABENCH_ENGINE_THREADS=auto``) and with Numba's default (a thread per CPU).
 
-    python benchmarks/engine_threads_load.py --repeats 3
-    python benchmarks/engine_threads_load.py --engine-only --repeats 5    # the engine's step alone, seconds
+    python benchmarks/figures/engine_threads_load.py --repeats 3
+    python benchmarks/figures/engine_threads_load.py --engine-only --repeats 5    # the engine's step alone, seconds
 
 Each arm runs the same command (25 random bodies learning 2,048 timesteps in lockstep on the walker,
 in the command's own process) and the arms alternate, so that the machine's other load falls on all of

@@ -1,7 +1,7 @@
 """What pinning torch's kernels to AVX2 costs gda (``gdabench.cpu``): the same short run with the pin and
 with the CPU's own kernels (``GDABENCH_ISA=native``), side by side.
 
-    python benchmarks/gda_isa_cost.py --repeats 2
+    python benchmarks/figures/gda_isa_cost.py --repeats 2
 
 Each run is ``gda[compile=true]`` on ``simple``, seed 0, 100 evaluations: generation 0 and three trained
 generations, of which the first compiles (or loads from inductor's cache) and is left out.  The arms

@@ -3,7 +3,7 @@
 Runs split over several directories (e.g. seeds 0..4 and 5..9 of one setting run in parallel)
 are pooled by designer label before summarising, so every row covers all of its seeds::
 
-    python benchmarks/gda_quality_table.py RUN_DIR [RUN_DIR ...] [--threshold 100]
+    python benchmarks/figures/gda_quality_table.py RUN_DIR [RUN_DIR ...] [--threshold 100]
 
 Columns: seeds that reached the threshold, median evaluations to reach it (runs that never
 did count as "not reached", so the median is not flattered), best reward (median and range),

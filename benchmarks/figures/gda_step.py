@@ -6,7 +6,7 @@ round so that load on a shared machine hits them alike; prints the median second
 each and its ratio to the current default (hand-derived, compiled), and per faithful generation
 (250 epochs).
 
-    python benchmarks/gda_step.py --epochs 20 --rounds 5
+    python benchmarks/figures/gda_step.py --epochs 20 --rounds 5
 """
 
 from __future__ import annotations

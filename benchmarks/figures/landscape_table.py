@@ -7,9 +7,9 @@ table row per (environment, designer): seeds that reached the environment's opti
 (a seed that never reached it counts as infinitely many, so the median says "not reached" when half the
 seeds or more missed it), median best reward with its range, and median wall time of a seed.
 
-    nice -n 10 python benchmarks/landscape_table.py --designers ga,random
-    nice -n 10 python benchmarks/landscape_table.py --designers ga,cppn,gda,random   # adds cppn, gda
-    python benchmarks/landscape_table.py --designers ga,cppn,gda,random --no-run      # table only
+    nice -n 10 python benchmarks/figures/landscape_table.py --designers ga,random
+    nice -n 10 python benchmarks/figures/landscape_table.py --designers ga,cppn,gda,random   # adds cppn, gda
+    python benchmarks/figures/landscape_table.py --designers ga,cppn,gda,random --no-run      # table only
 
 Each run is ``gdabench compare --suite landscapes -d DESIGNER --seeds 0..9 --out <root>/DESIGNER``.
 """

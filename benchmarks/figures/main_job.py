@@ -1,7 +1,7 @@
 """Time the main job and measure its memory (Linux).
 
-    python benchmarks/main_job.py [--out DIR] [extra gdabench compare arguments ...]
-    python benchmarks/main_job.py -D gda.speculate=false      # without training ahead
+    python benchmarks/figures/main_job.py [--out DIR] [extra gdabench compare arguments ...]
+    python benchmarks/figures/main_job.py -D gda.speculate=false      # without training ahead
 
 Runs ``gdabench compare --designers ga,cppn,gda --env simple`` and prints the wall time, the
 peak RSS of the largest process (what ``/usr/bin/time -v`` reports) and the peak RSS summed

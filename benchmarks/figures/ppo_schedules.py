@@ -11,7 +11,7 @@ reward), and per pair which schedule scored higher.
 
 Usage::
 
-    python benchmarks/ppo_schedules.py --bodies 5 --seeds 0,1,2 --timesteps 50000
+    python benchmarks/figures/ppo_schedules.py --bodies 5 --seeds 0,1,2 --timesteps 50000
 """
 
 from __future__ import annotations

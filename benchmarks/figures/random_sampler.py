@@ -1,6 +1,6 @@
 """Time Evolution Gym's random sampler, batched (``gdabench.body.random_body``) against one grid per draw.
 
-    python benchmarks/random_sampler.py [--bodies 20] [--shapes 5x5,8x8,12x12]
+    python benchmarks/figures/random_sampler.py [--bodies 20] [--shapes 5x5,8x8,12x12]
 
 Both draw the same bodies from the same stream (tests/test_body.py checks it); the figure is the
 ratio of their times per body, measured side by side on each shape.

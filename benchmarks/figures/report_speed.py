@@ -1,7 +1,7 @@
 """How long `gdabench report` takes on a full-size run (prints figures; not part of the test suite).
 
-    python benchmarks/report_speed.py                 # builds ga,random on simple, 1000 evaluations, seeds 0..9
-    python benchmarks/report_speed.py RUN_DIR -n 5    # times the report of an existing run
+    python benchmarks/figures/report_speed.py                 # builds ga,random on simple, 1000 evaluations, seeds 0..9
+    python benchmarks/figures/report_speed.py RUN_DIR -n 5    # times the report of an existing run
 
 Prints the median, min and max wall time of ``write_report`` over ``-n`` repetitions (the run
 is read from disk each time, as the CLI does; imports are not counted).

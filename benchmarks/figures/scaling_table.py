@@ -25,9 +25,9 @@ holds yet are added to the designer's run (``suite_runs.py``).  Then it prints, 
 ``--plot`` saves the gap against the number of voxels, one panel per environment; ``--csv``
 saves the gap table.
 
-    nice -n 10 python benchmarks/scaling_table.py --designers ga,cppn,random
-    nice -n 10 python benchmarks/scaling_table.py --designers gda-fast --seeds 0..2
-    python benchmarks/scaling_table.py --designers ga,cppn,random,gda-fast --no-run --plot scaling.png
+    nice -n 10 python benchmarks/figures/scaling_table.py --designers ga,cppn,random
+    nice -n 10 python benchmarks/figures/scaling_table.py --designers gda-fast --seeds 0..2
+    python benchmarks/figures/scaling_table.py --designers ga,cppn,random,gda-fast --no-run --plot scaling.png
 
 Each run is ``gdabench compare -d DESIGNER --env target,nk[k=4] --shape HxW --population P
 --budget B --seeds 0..9 --out <root>/HxW/DESIGNER``.

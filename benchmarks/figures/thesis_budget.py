@@ -2,7 +2,7 @@
 
 The thesis's author trained every Walker-v0 body with Evolution Gym 2.0's PPO for 1e6 timesteps and
 published each body's reward (``docs/benchmarks/output/thesis-walker-bodies.csv``, read from
-JohnStewardson/evolving_robots_diffusion by ``benchmarks/thesis_walker_bodies.py``).  This script draws
+JohnStewardson/evolving_robots_diffusion by ``benchmarks/ops/thesis_walker_bodies.py``).  This script draws
 a stratified sample of those bodies (every reward stratum, the course-crossers included), trains each
 with ``ppo`` on ``walker`` at every budget of ``--budgets`` and training seed of ``--seeds``, exactly as a
 run with that seed trains it (the trial path: ``evaluate_batch`` on the walker environment, lockstep,
@@ -24,9 +24,9 @@ of five batches of 5, so batches are as large as the loss of one allows).  Jobs 
 ``--order`` (budget:seed).
 One process, one torch thread; set NUMBA_NUM_THREADS=1 and run it under ``nice``::
 
-    NUMBA_NUM_THREADS=1 nice -n 19 python benchmarks/thesis_budget.py train --out /work/wt/thesis-budget.csv \\
+    NUMBA_NUM_THREADS=1 nice -n 19 python benchmarks/figures/thesis_budget.py train --out /work/wt/thesis-budget.csv \\
         --order 12500:0,50000:0,200000:0,1000000:0:13,12500:1,50000:1,200000:1
-    python benchmarks/thesis_budget.py table --rows docs/benchmarks/output/thesis-budget.csv
+    python benchmarks/figures/thesis_budget.py table --rows docs/benchmarks/output/thesis-budget.csv
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-BODIES = Path(__file__).resolve().parents[1] / "docs/benchmarks/output/thesis-walker-bodies.csv"
+BODIES = Path(__file__).resolve().parents[2] / "docs/benchmarks/output/thesis-walker-bodies.csv"
 FIELDS = ["budget", "seed", "body", "author", "author_designer", "reward", "distance", "best_at", "unstable",
           "seconds", "cpu_seconds", "batch", "finished"]  # fmt: skip
 #: the thesis's budget per body, the reference every smaller budget is ranked against

@@ -13,8 +13,8 @@ Prepared to run once on a machine with a GPU (at most about 4 minutes, compiling
   ``--distinct`` different bodies, cycled), median of ``--repeats`` timed runs of ``--seconds``, with
   the device memory in use; beside it the CPU engine on every core of the same machine.
 
-    python benchmarks/voxel_gpu.py --out gpu-engine.json
-    python benchmarks/voxel_gpu.py --dry-run    # the flow on the CPU engine (no GPU): for checking the script
+    python benchmarks/figures/voxel_gpu.py --out gpu-engine.json
+    python benchmarks/figures/voxel_gpu.py --dry-run    # the flow on the CPU engine (no GPU): for checking the script
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Write the task worlds of Evolution Gym 2.0 (``envs/sim_files/*.json``) in gdabench's form (plugin's venv).
 
     bash plugins/gdabench-evogym/install.sh /tmp/venv-evogym
-    /tmp/venv-evogym/bin/python benchmarks/evogym_worlds.py gdabench/envs/tasks/worlds.json
+    /tmp/venv-evogym/bin/python benchmarks/ops/evogym_worlds.py gdabench/envs/tasks/worlds.json
 
 Each world is read with Evolution Gym's own ``EvoWorld.from_json`` and written as its objects: a name,
 the voxel position of the object's bottom-left cell, and its cells as rows of codes (top row first).

@@ -1,8 +1,8 @@
 """Produce the committed reference results: the main job at full size, with its report.
 
-    python benchmarks/reference_results.py                      # ga,cppn,gda on simple, 1000 evaluations, seeds 0..9
-    python benchmarks/reference_results.py --designers ga,random --out /tmp/ref   # any other comparison
-    python benchmarks/reference_results.py --config experiments/walker.toml --out results/reference/walker \
+    python benchmarks/ops/reference_results.py                  # ga,cppn,gda on simple, 1000 evaluations, seeds 0..9
+    python benchmarks/ops/reference_results.py --designers ga,random --out /tmp/ref   # any other comparison
+    python benchmarks/ops/reference_results.py --config experiments/walker.toml --out results/reference/walker \
         --reevaluate 3x5 --primary gda,ga
 
 It runs ``gdabench compare`` (niced, one thread per process: the machine is shared), resumes
@@ -23,7 +23,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _status(out: Path) -> str | None:

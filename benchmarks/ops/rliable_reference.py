@@ -6,7 +6,7 @@ itself (:mod:`gdabench.report.aggregate`) and checks them against what rliable r
 inputs.  This script computes those values with rliable, in a venv of its own::
 
     python -m venv /tmp/venv-rliable && /tmp/venv-rliable/bin/pip install "rliable==1.2.0" "pandas<3" "arch<8"
-    /tmp/venv-rliable/bin/python benchmarks/rliable_reference.py > tests/expectations/rliable.json
+    /tmp/venv-rliable/bin/python benchmarks/ops/rliable_reference.py > tests/expectations/rliable.json
 
 Inputs (runs x tasks, already normalised): ``X`` and ``Y`` on 2 tasks, and ``A``/``B``/``C`` on 3 tasks
 with ties and scores outside [0, 1] (as a random-normalised score can be).  Outputs: rliable's point

@@ -16,7 +16,7 @@ training) are left out.
 
 Usage::
 
-    python benchmarks/thesis_walker_bodies.py /path/to/evolving_robots_diffusion \\
+    python benchmarks/ops/thesis_walker_bodies.py /path/to/evolving_robots_diffusion \\
         --out docs/benchmarks/output/thesis-walker-bodies.csv
 """
 

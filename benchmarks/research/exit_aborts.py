@@ -1,6 +1,9 @@
 """How often a process that read parquet tables aborts at exit, by how it read them.
 
-    python benchmarks/exit_aborts.py --runs 80 --processes 6      # about 4 minutes on 2 cores
+Research, kept for the record (``benchmarks/research/``): the measurement behind reading parquet through Arrow's own
+reader; its ``bytesio`` arm is a way gdabench no longer reads.
+
+    python benchmarks/research/exit_aborts.py --runs 80 --processes 6      # about 4 minutes on 2 cores
 
 Each run is a fresh Python process that reads a parquet file three times and exits; ``--processes``
 loops of ``--runs`` runs each go at once for every way of reading, side by side, and the count of
@@ -22,7 +25,7 @@ import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 READS = {
     "bytesio": "import io, pandas as pd\nfor _ in range(3): pd.read_parquet(io.BytesIO(PATH.read_bytes()))",
     "gdabench": "from gdabench.results import read_parquet\nfor _ in range(3): read_parquet(PATH)",

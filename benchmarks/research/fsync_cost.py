@@ -1,10 +1,13 @@
 """What flushing every result file to disk (fsync before each rename) costs a run on ``simple``.
 
+Research, kept for the record (``benchmarks/research/``): what the durability that a resume relies on costs
+(docs/scaling.md, Resume); no figure of it is committed.
+
 Runs the same comparison with fsync on and with fsync replaced by a no-op, alternating, in one
 process, and prints the median wall time of each and their ratio.  ``simple`` is the worst case:
 its evaluations cost nothing, so the writes after every generation are all there is.
 
-    python benchmarks/fsync_cost.py            # ga,random on simple, seeds 0..4, 5 repeats
+    python benchmarks/research/fsync_cost.py            # ga,random on simple, seeds 0..4, 5 repeats
 """
 
 from __future__ import annotations

@@ -1,6 +1,9 @@
 """What two cores of this machine give two independent gda trainings: the ceiling of ``--jobs 2``.
 
-    python benchmarks/parallel_ceiling.py [--epochs 40] [--rounds 3]
+Research, kept for the record (``benchmarks/research/``): a ceiling of the hardware, measured for
+docs/benchmarks/main-job.md; of gdabench it runs only gda's training step.
+
+    python benchmarks/research/parallel_ceiling.py [--epochs 40] [--rounds 3]
 
 Runs gda's faithful training (compiled, one torch thread, 5 survivors repeated to 64 items, batches
 of 5) in one process alone, then in two processes at once, alternately for ``--rounds`` rounds, and

@@ -1,5 +1,8 @@
 """How much PPO training ranks bodies, and what multi-fidelity schedules would keep of that ranking.
 
+Research, kept for the record (``benchmarks/research/``): the multi-fidelity schedules it plays out are
+simulated here, not part of gdabench (docs/benchmarks/codesign-speed.md).
+
 Trains ``--bodies`` random 5x5 bodies (Evolution Gym's sampler, a generation 0 of a real run) on the
 voxel walker at each budget of ``--budgets`` (lockstep, split over ``--processes`` processes; results
 are kept in ``--out`` per budget, so an interrupted measurement resumes), then prints:
@@ -21,8 +24,8 @@ designers' generations).
 
 Usage::
 
-    python benchmarks/ppo_budgets.py --bodies 30 --budgets 12500,50000,200000 --processes 2 --out /tmp/budgets
-    python benchmarks/ppo_budgets.py --bodies-from RUN --designer gda --generations 1,2,3 --budgets 12500,50000
+    python benchmarks/research/ppo_budgets.py --bodies 30 --budgets 12500,50000,200000 --processes 2 --out /tmp/budgets
+    python benchmarks/research/ppo_budgets.py --bodies-from RUN --designer gda --generations 1,2,3 --budgets 12500,50000
 """
 
 from __future__ import annotations

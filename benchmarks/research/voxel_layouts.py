@@ -1,5 +1,9 @@
 """Would another memory layout make the voxel engine faster per core?  One RK4 stage in four layouts.
 
+Research, kept for the record (``benchmarks/research/``): it COPIES one RK4 stage of the voxel engine's
+physics into four layouts (the engine's own layout among them), so a change to ``gdabench/envs/voxel/``
+does not reach it; the engine only sets up the states (docs/benchmarks/voxel-engine.md).
+
 The stage is the engine's hot spot, done four times per physics update: each spring's force
 ``d * ((|d| - rest) * k / |d|)``, then each point's sum of its springs' forces (its edges as end a
 with a minus sign, then as end b, in edge order: Evolution Gym's order, which bit-exact parity
@@ -22,8 +26,8 @@ env steps of an open-loop sinusoid on the engine.  Figures: microseconds per env
 the median of ``--repeats`` runs of ``--calls`` calls, on one thread.  ``--instructions`` counts
 each kernel's square roots and divisions in its machine code, scalar (``sd``) or SIMD (``pd``).
 
-    python benchmarks/voxel_layouts.py --instructions            # 8 lanes
-    python benchmarks/voxel_layouts.py --lanes 32 --calls 5000
+    python benchmarks/research/voxel_layouts.py --instructions            # 8 lanes
+    python benchmarks/research/voxel_layouts.py --lanes 32 --calls 5000
 """
 
 from __future__ import annotations

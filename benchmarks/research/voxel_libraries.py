@@ -1,6 +1,10 @@
 """Library comparison for the voxel engine: one core model of Evolution Gym's physics in torch (eager
 and ``torch.compile``), NVIDIA Warp and Numba, next to our full engine, in env steps/s per core.
 
+Research, kept for the record (``benchmarks/research/``): it COPIES a core model of the voxel engine's
+physics into torch, Warp and Numba, so a change to ``gdabench/envs/voxel/`` does not reach those copies; the
+engine itself is timed beside them (docs/benchmarks/voxel-libraries.md).
+
 The core model is the voxel engine's physics without self-collision and terrain boxels: B copies of
 one random 5x5 body (``gdabench.random_body(np.random.default_rng(0), (5, 5))``), started 0.05
 above a y = 0 floor.  One env step = 30 substeps of dt 1e-4, each:
@@ -44,8 +48,8 @@ Warp and Inductor are pointed at fresh temporary folders, so their first calls a
 Agreement: every implementation from the same start (B = 4), positions after 10 and after 50 env steps
 compared with the Numba core model (max absolute difference).
 
-    nice -n 5 python benchmarks/voxel_libraries.py --batches 1,16,64,256,1024
-    python benchmarks/voxel_libraries.py --batches 1,64 --libraries numba,torch --seconds 0.5
+    nice -n 5 python benchmarks/research/voxel_libraries.py --batches 1,16,64,256,1024
+    python benchmarks/research/voxel_libraries.py --batches 1,64 --libraries numba,torch --seconds 0.5
 """
 
 import argparse
