@@ -28,30 +28,30 @@ def _name(path: Path) -> str:
     return f"{path.parent.name}/{path.name}"
 
 
-#: figure reproducers run here at tiny sizes: arguments ({tmp}: the test's folder, also the working directory;
-#: {root}: the repository) and a line their output must hold
-SMOKE: dict[str, tuple[list[str], str]] = {
-    "figures/random_sampler.py": (["--bodies", "2", "--shapes", "5x5"], "| 5x5 |"),
-    "figures/gda_quality_table.py": (["{root}/results/reference/simple"], "| `gda` | 10 |"),
-    "figures/report_speed.py": (["{tmp}/run", "-n", "1"], "median"),
+#: figure reproducers run here at tiny sizes: their arguments ({tmp}: the test's folder, also the working
+#: directory; {root}: the repository) and a line their output must hold
+SMOKE: dict[str, tuple[str, str]] = {
+    "figures/random_sampler.py": ("--bodies 2 --shapes 5x5", "| 5x5 |"),
+    "figures/gda_quality_table.py": ("{root}/results/reference/simple", "| `gda` | 10 |"),
+    "figures/report_speed.py": ("{tmp}/run -n 1", "median"),  # a copy of the committed run: it writes the report
     "figures/thesis_budget.py": (  # the page's table from the committed rows (training is the expensive half)
-        ["table", "--rows", "{root}/docs/benchmarks/output/thesis-budget.csv", "--markdown", "{tmp}/table.md"],
+        "table --rows {root}/docs/benchmarks/output/thesis-budget.csv --markdown {tmp}/table.md",
         "spearman_author",
     ),
     "figures/voxel_gpu.py": (  # --dry-run: the CPU engine in the GPU's place
-        ["--dry-run", "--agree", "2", "--batches", "4", "--cpu-batches", "4", "--distinct", "4", "--seconds", "0.05",
-         "--repeats", "1", "--shapes", "8x8", "--shape-batch", "4", "--block-sweep", "32", "--out", "{tmp}/gpu.json"],
+        "--dry-run --agree 2 --batches 4 --cpu-batches 4 --distinct 4 --seconds 0.05 --repeats 1 --shapes 8x8"
+        " --shape-batch 4 --block-sweep 32 --out {tmp}/gpu.json",
         "agreement",
-    ),  # fmt: skip
-    "figures/codesign_gpu.py": (  # a CPU arm: the learner on the CPU
-        ["--arms", "cpu:evogym2", "--bodies", "2", "--timesteps", "256", "--minutes", "0.5", "--out", "{tmp}/cg.json"],
+    ),
+    "figures/codesign_gpu.py": (  # a CPU arm (the learner on the CPU); it stops at its timesteps, far before 10 min
+        "--arms cpu:evogym2 --bodies 2 --timesteps 256 --minutes 10 --out {tmp}/cg.json",
         '"finished": true',
     ),
     "compare/voxel_speed.py": (  # without Evolution Gym: the engine's half of the table
-        ["--shapes", "5x5", "--batches", "1,4", "--bodies", "4", "--seconds", "0.05", "--repeats", "1"],
+        "--shapes 5x5 --batches 1,4 --bodies 4 --seconds 0.05 --repeats 1",
         "| 5x5 | 4 |",
     ),
-    "compare/walker_stability.py": (["--bodies", "3", "--steps", "50", "--engine", "voxel"], "undetected problems: 0"),
+    "compare/walker_stability.py": ("--bodies 3 --steps 50 --engine voxel", "undetected problems: 0"),
 }
 
 #: figure reproducers that another test runs at tiny sizes
@@ -73,7 +73,7 @@ HELP_ONLY = {
     "figures/gda_isa_cost.py": "gda compiled, twice (a minute of torch.compile before the first figure)",
     "figures/gda_step.py": "torch.compile of the default variant (about 30 s of CPU even at one epoch)",
     "figures/main_job.py": "the main job itself, with gda",
-    "figures/ppo_schedules.py": "PPO training of at least one rollout under two schedules (about 30 s of CPU)",
+    "figures/ppo_schedules.py": "PPO training of one rollout under two schedules: about 35 s of CPU at the least",
     "compare/codesign_speed.py": "its arms need an older commit's worktree or Evolution Gym and stable-baselines3",
     "compare/evogym_record.py": "needs Evolution Gym (records its trajectories)",
     "compare/ppo_batch_of_one.py": "needs an older commit's worktree (--before)",
@@ -110,13 +110,16 @@ def test_a_benchmark_script_starts_and_shows_its_usage(script):
 @pytest.mark.parametrize("name", sorted(SMOKE))
 def test_a_figure_reproducer_runs_at_tiny_sizes(name, tmp_path):
     args, expected = SMOKE[name]
-    if name == "figures/report_speed.py":  # it writes the report into the run: a copy of the committed one
+    if name == "figures/report_speed.py":
         shutil.copytree(REFERENCE, tmp_path / "run")
     before = {p: p.stat().st_mtime_ns for p in OUTPUT.rglob("*")}
     done = subprocess.run(
-        [sys.executable, str(BENCHMARKS / name), *(a.format(tmp=tmp_path, root=ROOT) for a in args)],
-        capture_output=True, text=True, cwd=tmp_path, timeout=300,
-    )  # fmt: skip
+        [sys.executable, str(BENCHMARKS / name), *(a.format(tmp=tmp_path, root=ROOT) for a in args.split())],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stderr[-2000:]
     assert expected in done.stdout + done.stderr
     assert {p: p.stat().st_mtime_ns for p in OUTPUT.rglob("*")} == before  # docs' outputs untouched
