@@ -17,7 +17,7 @@ def read_parquet(path: Path, columns: Sequence[str] | None = None) -> pd.DataFra
     between hands it the new file's bytes with the old file's size.  Arrow's file and buffer rather than a
     Python file object (or ``pandas.read_parquet``, which opens one): Arrow's threads then hold no Python
     object, whose release in a finalising interpreter aborted about one process in 75 at exit ("terminate
-    called without an active exception"; ``benchmarks/exit_aborts.py``).
+    called without an active exception"; ``benchmarks/research/exit_aborts.py``).
     """
     with pa.OSFile(str(path)) as file:
         data = file.read_buffer()

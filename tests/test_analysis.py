@@ -249,7 +249,7 @@ def test_seeds_needed():
 
 
 # -- aggregates (rliable) ---------------------------------------------------------------------------------
-# What rliable 1.2.0 returns for hand-made normalised scores (runs x tasks), made by benchmarks/rliable_reference.py
+# What rliable 1.2.0 returns for hand-made normalised scores (runs x tasks), made by benchmarks/ops/rliable_reference.py
 # in a venv with rliable and pandas 2 (rliable cannot be imported next to gdabench's pandas 3): point estimates, and
 # 95% stratified-bootstrap percentile intervals with `reps` resamples after np.random.seed(0).
 RLIABLE = json.loads((Path(__file__).parent / "expectations" / "rliable.json").read_text())

@@ -438,8 +438,8 @@ def test_every_output_a_page_links_to_is_committed_and_published():
 
 
 def test_the_evogym_task_page_shows_the_committed_task_outputs():
-    """The page of Evolution Gym's tasks is generated from benchmarks/task_*.py's committed outputs: a row per task
-    whose parity steps, held-out Spearman and sign agreement, unstable bodies and speed ratio are recomputed here
+    """The page of Evolution Gym's tasks is generated from benchmarks/compare/task_*.py's committed outputs: a row per
+    task whose parity steps, held-out Spearman and sign agreement, unstable bodies and speed ratio are recomputed here
     from the per-body and per-episode figures, and the tasks it says miss a goal are exactly those."""
     import pandas as pd
     from scipy.stats import spearmanr

@@ -12,7 +12,7 @@ from support.scripts import load_script
 
 @pytest.fixture(scope="module")
 def table():
-    return load_script("landscape_table")
+    return load_script("figures/landscape_table")
 
 
 def test_runs_each_pair_once_and_prints_a_row_per_pair(table, tmp_path, capsys):

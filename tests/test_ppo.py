@@ -1,7 +1,7 @@
 """The ``ppo`` controller: learning, action range, seeding, saved policies, bad input.
 
 Budgets are a few rollouts so that the whole file stays fast; what the controller reaches with
-real budgets is measured by ``benchmarks/ppo_vs_sb3.py``.
+real budgets is measured by ``benchmarks/compare/ppo_vs_sb3.py``.
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ ROW = ["designer", "seed", "generation", "body", "reward", "status"]
 def test_ga_and_cppn_give_the_committed_simple_reference_rows(tmp_path):
     """``gda`` takes minutes per seed, ``ga`` and ``cppn`` a second: two of the reference run's seeds of these two
     are run again with its settings. A change that alters them (seeding, selection, encoding, the harness) must
-    come with the reference run made again (``benchmarks/reference_results.py``), whose tables the docs and the
+    come with the reference run made again (``benchmarks/ops/reference_results.py``), whose tables the docs and the
     README show."""
     import gdabench
 
@@ -36,7 +36,7 @@ def test_gda_gives_the_same_rows_on_any_cpu_under_the_avx2_pin(tmp_path):
     """gda's rows once depended on the CPU's instruction set from its first trained generation on (an AVX-512
     Xeon trained other models than the machine that made the reference run).  Under the AVX2 pin
     (``gdabench.cpu``) seed 0's first trained generation must be the one committed here, on any x86-64 CPU with
-    AVX2.  The reference run itself was made before the pin; once ``benchmarks/reference_results.py`` has made
+    AVX2.  The reference run itself was made before the pin; once ``benchmarks/ops/reference_results.py`` has made
     it again under the pin, its first rows are these (they are the same command at a smaller budget)."""
     import gdabench
     from gdabench import cpu

@@ -12,7 +12,7 @@ from support.scripts import BENCHMARKS, load_script
 
 @pytest.fixture(scope="module")
 def table():
-    return load_script("scaling_table")
+    return load_script("figures/scaling_table")
 
 
 def test_budget_and_population_follow_the_voxels(table):

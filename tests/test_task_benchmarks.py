@@ -1,4 +1,5 @@
-"""The task benchmarks' comparisons (``benchmarks/task_parity.py``, ``task_fidelity.py``, ``task_stability.py``).
+"""The task benchmarks' comparisons (``benchmarks/compare/``: ``task_parity.py``, ``task_fidelity.py``,
+``task_stability.py``).
 
 CI has no Evolution Gym, so the voxel engine stands in for it (``evogym_twin.VoxelEnv`` answers the calls
 ``EvogymEnv`` answers): the same simulator on both sides must give gaps of zero and perfect agreement, a
@@ -16,9 +17,9 @@ import gdabench
 
 from support.scripts import load_script
 
-parity = load_script("task_parity")
-fidelity = load_script("task_fidelity")
-stability = load_script("task_stability")
+parity = load_script("compare/task_parity")
+fidelity = load_script("compare/task_fidelity")
+stability = load_script("compare/task_stability")
 twin = importlib.import_module("evogym_twin")  # the module the scripts import (load_script put it on the path)
 
 WALKER = gdabench.Body.from_text("11111/13331/40004/40004/40004")

@@ -1,7 +1,7 @@
 """Evolution Gym's tasks on the voxel engine (``voxel/<task>``): parity with Evolution Gym 2.0, per task.
 
 Parity numbers come from ``tests/fixtures/tasks/<task>.npz``, recorded from Evolution Gym 2.0's own
-Gymnasium environments with ``benchmarks/evogym_record.py tests/fixtures/tasks --tasks`` (CI never needs
+Gymnasium environments with ``benchmarks/compare/evogym_record.py tests/fixtures/tasks --tasks`` (CI never needs
 Evolution Gym): for every task and two bodies, the first steps of an episode under a fixed gait.
 """
 

@@ -58,4 +58,4 @@ def test_clip_ppo_loss_over_stacked_bodies_gives_the_hand_written_numbers():
     the bodies' stacked parameters, computes each body's loss and value loss as ``LockstepUpdate`` does."""
     from support.scripts import load_script
 
-    assert load_script("ppo_clip_loss").check(seeds=2) < 1e-6
+    assert load_script("compare/ppo_clip_loss").check(seeds=2) < 1e-6

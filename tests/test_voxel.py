@@ -1,7 +1,7 @@
 """The voxel engine (gdabench/Walker-v2): Evolution Gym's physics, batched.
 
 Parity numbers come from ``tests/fixtures/voxel_parity.npz``, recorded once from Evolution Gym 2.0
-with ``benchmarks/evogym_record.py`` (CI never needs Evolution Gym).
+with ``benchmarks/compare/evogym_record.py`` (CI never needs Evolution Gym).
 """
 
 from __future__ import annotations

@@ -18,17 +18,17 @@ Generated so that they cannot drift from the code or the committed data:
   ``results/reference/RUN/`` in the places of their designers, and ``<!-- gdabench:walker-variants RUN -->``
   each variant's best reward per seed beside its designer's;
 * ``<!-- gdabench:walker-transfer -->`` becomes the transfer check of that run's best bodies in Evolution
-  Gym, from its ``transfer.csv``, summarised by ``benchmarks/walker_transfer.py``'s own functions;
+  Gym, from its ``transfer.csv``, summarised by ``benchmarks/compare/walker_transfer.py``'s own functions;
 * ``<!-- gdabench:walker-reevaluated -->``, ``<!-- gdabench:walker-measures -->`` and ``<!-- gdabench:walker-tests -->``
   become the walker run's raw against re-evaluated scores (``reevaluations.parquet``), its measures that do not
   saturate (evaluations to a reward, mean best-so-far) and its primary and exploratory tests (``pairwise.csv``);
 * ``<!-- gdabench:thesis-budget -->`` and ``<!-- gdabench:thesis-budget-bodies -->`` become the thesis's budget
-  against its author's numbers, from ``docs/benchmarks/output/thesis-budget.csv`` (benchmarks/thesis_budget.py);
+  against its author's numbers, from ``docs/benchmarks/output/thesis-budget.csv`` (benchmarks/figures/thesis_budget.py);
 * ``<!-- gdabench:evogym-task-summary -->``, ``<!-- gdabench:evogym-task-misses -->``,
   ``<!-- gdabench:evogym-task-parity -->`` and ``<!-- gdabench:evogym-task-control -->`` become the voxel engine
   against Evolution Gym on its 32 tasks (parity steps, fidelity, stability, speed, the goals missed and Evolution
   Gym against itself), from the ``task-*.json`` and ``task-fidelity*.csv`` outputs in ``docs/benchmarks/output/``
-  (``benchmarks/task_parity.py``, ``task_fidelity.py``, ``task_stability.py``, ``task_speed.py``);
+  (``benchmarks/compare/task_parity.py``, ``task_fidelity.py``, ``task_stability.py``, ``task_speed.py``);
 * ``<!-- gdabench:extras -->`` becomes the table of the optional extras in ``pyproject.toml``.
 
 Files outside ``docs/`` that pages show or link to (the committed reference runs under
@@ -59,11 +59,11 @@ log = get_plugin_logger("gdabench")
 #: committed results published with the site (Markdown files there are not pages)
 PUBLISHED = "results/reference"
 #: the thesis author's published Walker-v0 bodies and rewards (JohnStewardson/evolving_robots_diffusion, runs of
-#: 26 August, 13 September and 27 September 2024; benchmarks/thesis_walker_bodies.py): the thesis's figure 5.1
+#: 26 August, 13 September and 27 September 2024; benchmarks/ops/thesis_walker_bodies.py): the thesis's figure 5.1
 THESIS_BODIES = "docs/benchmarks/output/thesis-walker-bodies.csv"
-#: what benchmarks/thesis_budget.py trained of them, row by row
+#: what benchmarks/figures/thesis_budget.py trained of them, row by row
 THESIS_BUDGET = "docs/benchmarks/output/thesis-budget.csv"
-#: the outputs of the task benchmarks (benchmarks/task_*.py); the controls may be missing (not run yet)
+#: the outputs of the task benchmarks (benchmarks/compare/task_*.py); the controls may be missing (not run yet)
 TASK_OUTPUT = "docs/benchmarks/output"
 #: issue 53's speed goal: env steps/s of a batch of 64 on one core against Evolution Gym's, on every task
 TASK_SPEED_GOAL = 10.0
@@ -79,7 +79,7 @@ EXTRAS = {
     "gpu": "the voxel engine on an NVIDIA GPU: `gdabench.envs.voxel.gpu` ([On a GPU](environments/voxel-engine.md#on-a-gpu))",
     "ray": "`--executor ray`: run trials (and their evaluation workers) on a local Ray instance or an existing Ray cluster",
     "tensorboard": "`--log tensorboard`: each generation's figures as TensorBoard event files",
-    "bench": "`benchmarks/ppo_vs_sb3.py`, which compares the `ppo` controller with stable-baselines3's PPO",
+    "bench": "`benchmarks/compare/ppo_vs_sb3.py`, which compares the `ppo` controller with stable-baselines3's PPO",
     "docs": "building this site: `mkdocs build --strict`",
     "lint": "`ruff check gdabench tests benchmarks plugins` and `mypy`, as CI runs them ([Development](development.md#lint-and-types))",
 }
@@ -344,13 +344,13 @@ def walker_bodies(root: Path) -> str:
     return "\n".join(lines)
 
 
-def _benchmark(root: Path, name: str) -> Any:
-    """A script of ``benchmarks/`` as a module, for the page that shows what it measured."""
+def _benchmark(root: Path, script: str) -> Any:
+    """A script of ``benchmarks/`` (``folder/name``) as a module, for the page that shows what it measured."""
     import importlib.util
 
-    spec = importlib.util.spec_from_file_location(name, root / "benchmarks" / f"{name}.py")
+    spec = importlib.util.spec_from_file_location(Path(script).name, root / "benchmarks" / f"{script}.py")
     if spec is None or spec.loader is None:
-        raise PluginError(f"cannot load benchmarks/{name}.py")
+        raise PluginError(f"cannot load benchmarks/{script}.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -358,7 +358,7 @@ def _benchmark(root: Path, name: str) -> Any:
 
 def walker_transfer(root: Path) -> str:
     """The designer ranking in both simulators, the per-body agreement, and every body's two rewards."""
-    transfer = _benchmark(root, "walker_transfer")
+    transfer = _benchmark(root, "compare/walker_transfer")
     table = _read_walker("transfer.csv", root, transfer.read_transfer)
     lines = ["| designer | seeds | walker: mean best | Evolution Gym: mean | rank on walker | rank in Evolution Gym |",
              "|---|--:|--:|--:|--:|--:|"]
@@ -581,10 +581,10 @@ def evogym_task_control(root: Path) -> str:
 
 
 def thesis_budget(root: Path) -> str:
-    """The agreement of each budget's rewards with the thesis author's, from benchmarks/thesis_budget.py's rows."""
+    """The agreement of each budget's rewards with the thesis author's, from benchmarks/figures/thesis_budget.py's rows."""
     import pandas as pd
 
-    budget = _benchmark(root, "thesis_budget")
+    budget = _benchmark(root, "figures/thesis_budget")
     try:
         rows = pd.read_csv(root / THESIS_BUDGET)
     except OSError as exc:

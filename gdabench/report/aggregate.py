@@ -4,7 +4,7 @@ The definitions are rliable's (Agarwal et al., "Deep RL at the edge of the stati
 precipice", 2021), computed with numpy and scipy: rliable 1.2.0 cannot be imported next to
 pandas 3 (its ``arch < 8`` dependency fails to import; ``arch`` 8 breaks rliable's bootstrap), so
 the tests check these functions against values rliable computed on hand-made data
-(``benchmarks/rliable_reference.py``, run in a venv with rliable and pandas 2), and against rliable
+(``benchmarks/ops/rliable_reference.py``, run in a venv with rliable and pandas 2), and against rliable
 itself wherever it imports:
 
 * each run's score on an environment is *normalised* as rliable normalises Atari scores

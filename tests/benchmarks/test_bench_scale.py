@@ -2,7 +2,7 @@
 
 Run with ``python -m pytest tests/benchmarks/test_bench_scale.py --benchmark-enable``.  The
 parallel speed-up and the Ray-versus-process comparison are measured by
-``python benchmarks/bench_scale.py`` (see its docstring); a tiny run of it here keeps it working.
+``python benchmarks/figures/bench_scale.py`` (see its docstring); a tiny run of it here keeps it working.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from gdabench.body import random_body
 from gdabench.execution import EvalTask, Execution, make_executor
 from gdabench.specs import Factory
 
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_scale.py"
+SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "figures" / "bench_scale.py"
 
 
 def test_process_executor_generation_on_simple(benchmark):

@@ -1,9 +1,9 @@
 """Simulation speed of ``gdabench/Walker-v1``: environment steps per second on one core.
 
 Target: at least 3 times Evolution Gym's env steps per second, measured side by side by
-``benchmarks/walker_fidelity.py`` (in the Evolution Gym plugin's venv).  One round is a full 500-step episode of random
-actions through ``gymnasium.make``'s wrappers, reset included; ``extra_info`` holds the steps per second at the
-median round.
+``benchmarks/compare/walker_fidelity.py`` (in the Evolution Gym plugin's venv).  One round is a full 500-step episode
+of random actions through ``gymnasium.make``'s wrappers, reset included; ``extra_info`` holds the steps per second at
+the median round.
 
     python -m pytest tests/benchmarks/test_bench_walker.py --benchmark-enable --benchmark-columns=median,rounds
 """

@@ -39,7 +39,7 @@ def penalised(reward: np.ndarray, unstable: np.ndarray) -> np.ndarray:
 
 @cache
 def worlds() -> dict[str, Any]:
-    """Evolution Gym's task worlds (``envs/sim_files``), as ``benchmarks/evogym_worlds.py`` wrote them."""
+    """Evolution Gym's task worlds (``envs/sim_files``), as ``benchmarks/ops/evogym_worlds.py`` wrote them."""
     return json.loads(files(__package__).joinpath("worlds.json").read_text())["worlds"]
 
 

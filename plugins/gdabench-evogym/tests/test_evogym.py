@@ -90,9 +90,9 @@ def test_ppo_trains_on_evolution_gym(tmp_path):
 
 
 def test_walker_fidelity_benchmark_compares_both_simulators(tmp_path):
-    """A slice of benchmarks/walker_fidelity.py (the full run takes hours on a shared machine)."""
+    """A slice of benchmarks/compare/walker_fidelity.py (the full run takes hours on a shared machine)."""
     root = os.path.join(os.path.dirname(__file__), "..", "..", "..")
-    script = os.path.join(root, "benchmarks", "walker_fidelity.py")
+    script = os.path.join(root, "benchmarks", "compare", "walker_fidelity.py")
     cache = tmp_path / "evogym.jsonl"
     args = [
         sys.executable,

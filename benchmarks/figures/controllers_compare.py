@@ -1,0 +1,188 @@
+"""Controllers that learn many bodies at once against per-body PPO, on a real designer generation (issue 56).
+
+For each task of ``--tasks`` and each per-body budget T of ``--budgets`` (timesteps per body):
+
+1. a designer (``--designer``, default ``ga``) proposes generation 0 (``--population`` bodies), which
+   ``ppo[init=parent]`` trains from scratch at T (so the policies children inherit are kept), and is told
+   the rewards; it then proposes generation 1, naming each child's parents;
+2. generation 1 is trained four ways, each child with the same env steps T:
+   ``scratch``: per-body ``ppo`` (Evolution Gym's, the thesis's);
+   ``parent``: ``ppo[init=parent]``, each child from its nearest parent's policy;
+   ``modular``: one shared policy on ModularEvoGym's per-voxel observations, trained on generation 0's
+   pooled experience and carried on to generation 1's (``gdabench.controllers.modular``; not a registered
+   controller yet);
+   and ``scratch`` at 4T, the reference ranking;
+3. prints per task and budget: each way's median child reward and the median paired difference against
+   ``scratch``; each way's Spearman rank correlation with ``scratch`` at 4T, and how many of the 4T top 5
+   its top 5 holds (the survivors a designer would keep); its env steps per second in this process.
+
+Policies are saved under ``--out`` (one folder per task, budget and way): a rerun replays what is there, so
+an interrupted measurement resumes.  One process, one torch thread: run it on a quiet machine, or beside a
+known load and say so.  ``--json`` writes every row.
+
+Usage::
+
+    python benchmarks/figures/controllers_compare.py --out /tmp/controllers --budgets 12500,50000,200000
+    python benchmarks/figures/controllers_compare.py --out /tmp/controllers --tasks Walker-v0,BridgeWalker-v0,Climber-v0
+    python benchmarks/figures/controllers_compare.py --out /tmp/smoke --budgets 128 --population 3   # a smoke test
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import statistics
+import time
+from pathlib import Path
+from typing import Any
+
+WAYS = ("scratch", "parent", "modular")
+TOP = 5
+
+
+def spearman(a: list[float], b: list[float]) -> float:
+    from scipy.stats import spearmanr
+
+    return float(spearmanr(a, b).statistic) if len(a) > 2 else float("nan")
+
+
+def top_overlap(a: list[float], b: list[float], k: int = TOP) -> int:
+    def best(r: list[float]) -> set[int]:
+        return set(sorted(range(len(r)), key=lambda i: -r[i])[:k])
+
+    return len(best(a) & best(b))
+
+
+def ppo_rewards(env: Any, bodies: list, seeds: list[int], workdirs: list[Path], parents: list | None = None,
+                **params: Any) -> tuple[list[float], float]:
+    """Rewards of ``bodies`` under ``ppo[**params]`` (saved policies replayed) and the env steps per second."""
+    from gdabench.controllers.ppo import PPO
+
+    batch = env.bodies(bodies)
+    if parents is not None:
+        batch = dataclasses.replace(batch, parents=parents)
+    start = time.perf_counter()
+    results = PPO(**params).evaluate_bodies(batch, seeds=seeds, workdirs=workdirs)
+    seconds = time.perf_counter() - start
+    for r in results:
+        if isinstance(r, BaseException):
+            raise r
+    steps = sum(r.info.get("env_steps", 0) for r in results)  # type: ignore[union-attr]
+    speed_file = workdirs[0].parent / "speed.json"  # a rerun replays the policies: keep the first run's speed
+    if steps:
+        speed_file.write_text(json.dumps({"steps_per_second": steps / seconds}))
+    speed = json.loads(speed_file.read_text())["steps_per_second"] if speed_file.exists() else float("nan")
+    return [r.reward for r in results], speed  # type: ignore[union-attr]
+
+
+def modular_rewards(env: Any, generations: list[list], seeds: list[list[int]], timesteps: int,
+                    folder: Path) -> tuple[list[float], float]:
+    """The last generation's rewards under one shared policy trained on each generation in turn (carried)."""
+    import torch
+
+    from gdabench.controllers.modular.observation import modular_view
+    from gdabench.controllers.modular.policy import fresh_policy
+    from gdabench.controllers.modular.train import train_pooled
+    from gdabench.controllers.ppo import PPOConfig
+
+    saved = folder / "rewards.json"
+    if saved.exists():
+        data = json.loads(saved.read_text())
+        return data["rewards"], data["steps_per_second"]
+    config = PPOConfig(timesteps=timesteps)
+    policy, steps, seconds, result = None, 0, 0.0, None
+    for bodies, body_seeds in zip(generations, seeds):
+        batch = env.bodies(bodies)
+        views = []
+        for make_env in batch.make_envs:
+            gym_env = make_env()
+            views.append(modular_view(gym_env))
+            gym_env.close()
+        if policy is None:
+            policy = fresh_policy(len(views[0].other), config.hidden, body_seeds[0])
+        start = time.perf_counter()
+        count = len(bodies)
+        result = train_pooled(config, policy, lambda n, b=batch, k=count: b.make_batch(range(k), n), views,
+                              body_seeds, body_seeds[0])
+        seconds += time.perf_counter() - start
+        steps += result.timesteps * len(bodies)
+    assert result is not None
+    rewards = [result.reward(b) for b in range(len(generations[-1]))]
+    folder.mkdir(parents=True, exist_ok=True)
+    torch.save(result.final.state_dict(), folder / "shared_policy.pt")
+    saved.write_text(json.dumps({"rewards": rewards, "steps_per_second": steps / seconds}))
+    return rewards, steps / seconds
+
+
+def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any]:
+    from gdabench import make_designer, seeding
+    from gdabench.envs.voxel.env import VoxelTask
+
+    env = VoxelTask(task=task)
+    out = args.out / task / str(budget)
+    designer = make_designer(args.designer, seed=args.seed, shape=(5, 5), population=args.population,
+                             budget=2 * args.population)
+    first = designer.ask()
+    first_seeds = [seeding.evaluation_seed(args.seed, b.hash) for b in first]
+    first_dirs = [out / "parent" / b.hash for b in first]
+    first_rewards, _ = ppo_rewards(env, first, first_seeds, first_dirs, timesteps=budget, init="parent")
+    designer.tell(first, first_rewards)
+    children = designer.ask()
+    told = {b.hash for b in first}
+    parents = [tuple(out / "parent" / p.hash for p in ps if p.hash in told)
+               for ps in (designer.proposal_parents() or [()] * len(children))]
+    seeds = [seeding.evaluation_seed(args.seed, b.hash) for b in children]
+    row: dict[str, Any] = {"task": task, "budget": budget, "designer": args.designer, "children": len(children)}
+    rewards: dict[str, list[float]] = {}
+    speed: dict[str, float] = {}
+    rewards["scratch"], speed["scratch"] = ppo_rewards(
+        env, children, seeds, [out / "scratch" / b.hash for b in children], timesteps=budget)
+    rewards["parent"], speed["parent"] = ppo_rewards(
+        env, children, seeds, [out / "parent" / b.hash for b in children], parents, timesteps=budget, init="parent")
+    rewards["modular"], speed["modular"] = modular_rewards(env, [first, children], [first_seeds, seeds], budget,
+                                                           out / "modular")
+    reference, _ = ppo_rewards(env, children, seeds, [out / "scratch4x" / b.hash for b in children],
+                               timesteps=4 * budget)
+    row["with_parent"] = sum(1 for p in parents if p)
+    for way in WAYS:
+        r = rewards[way]
+        row[f"{way}_median"] = statistics.median(r)
+        row[f"{way}_minus_scratch"] = statistics.median(a - b for a, b in zip(r, rewards["scratch"]))
+        row[f"{way}_spearman_4x"] = spearman(r, reference)
+        row[f"{way}_top{TOP}_of_4x"] = top_overlap(r, reference)
+        row[f"{way}_steps_per_s"] = speed[way]
+    row["rewards"] = {**rewards, "scratch4x": reference}
+    return row
+
+
+def show(rows: list[dict[str, Any]]) -> None:
+    print(f"{'task':<18}{'T':>8}  {'way':<8}{'median':>8}{'- scratch':>10}{'rho 4x':>8}{f'top{TOP}':>6}{'steps/s':>9}")
+    for row in rows:
+        for way in WAYS:
+            print(f"{row['task']:<18}{row['budget']:>8}  {way:<8}{row[f'{way}_median']:>8.3f}"
+                  f"{row[f'{way}_minus_scratch']:>10.3f}{row[f'{way}_spearman_4x']:>8.2f}"
+                  f"{row[f'{way}_top{TOP}_of_4x']:>6}{row[f'{way}_steps_per_s']:>9.0f}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", type=Path, required=True, help="where policies and results are kept (resumable)")
+    parser.add_argument("--tasks", default="Walker-v0", help="Evolution Gym tasks on the voxel engine, comma-separated")
+    parser.add_argument("--budgets", default="12500,50000,200000", help="timesteps per body, comma-separated")
+    parser.add_argument("--designer", default="ga", help="the designer whose generations are trained")
+    parser.add_argument("--population", type=int, default=25)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--json", type=Path, help="write every row (with each body's rewards) here")
+    args = parser.parse_args()
+    import torch
+
+    torch.set_num_threads(1)
+    rows = [measure(task, int(float(b)), args) for task in args.tasks.split(",") for b in args.budgets.split(",")]
+    show(rows)
+    if args.json:
+        args.json.write_text(json.dumps(rows, indent=1))
+
+
+if __name__ == "__main__":
+    main()

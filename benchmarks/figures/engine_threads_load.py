@@ -1,0 +1,106 @@
+"""How much one other busy process slows a co-design run, with the engine's threads as gdabench chooses
+them (``GDABENCH_ENGINE_THREADS=auto``) and with Numba's default (a thread per CPU).
+
+    python benchmarks/figures/engine_threads_load.py --repeats 3
+    python benchmarks/figures/engine_threads_load.py --engine-only --repeats 5    # the engine's step alone, seconds
+
+Each arm runs the same command (25 random bodies learning 2,048 timesteps in lockstep on the walker,
+in the command's own process) and the arms alternate, so that the machine's other load falls on all of
+them alike.  ``busy`` starts one process spinning on a core for the run's length.  Prints each run's
+wall time, the medians and the ratio busy/quiet; the goal is at most 1.3.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+COMMAND = ["-m", "gdabench", "compare", "-d", "random", "--env", "walker", "-c", "ppo[timesteps=2048]",
+           "--population", "25", "--budget", "25", "--seeds", "0", "--jobs", "1", "-q", "--no-report"]  # fmt: skip
+SPIN = "import time\nwhile True:\n    pass\n"
+
+
+def run(threads: str, busy: bool, out: Path) -> float:
+    env = {**os.environ, "GDABENCH_ENGINE_THREADS": threads}
+    spinner = subprocess.Popen([sys.executable, "-c", SPIN]) if busy else None
+    try:
+        start = time.perf_counter()
+        subprocess.run([sys.executable, *COMMAND, "--out", str(out)], env=env, check=True)
+        return time.perf_counter() - start
+    finally:
+        if spinner is not None:
+            spinner.kill()
+            spinner.wait()
+
+
+def engine_only(repeats: int, steps: int = 300) -> None:
+    """The engine's batch step alone (25 bodies), on one thread and on every CPU, with and without one busy
+    process beside it: what the choice of threads is worth, in seconds rather than a run's minutes."""
+    import numba
+    import numpy as np
+
+    import gdabench
+    from gdabench.envs.voxel.batch import TaskBatch
+
+    rng = np.random.default_rng(0)
+    batch = TaskBatch("Walker-v0", [gdabench.random_body(rng).text for _ in range(25)])
+    batch.reset()
+    actions = rng.uniform(0.6, 1.6, size=(steps, batch.num_envs, max(batch.act_sizes)))
+    cpus = numba.config.NUMBA_NUM_THREADS
+    arms = {(threads, busy): [] for busy in (False, True) for threads in sorted({1, cpus})}
+    for _ in range(repeats):
+        for (threads, busy), times in arms.items():
+            numba.set_num_threads(threads)
+            batch.step(actions[0])  # compiled and warm
+            spinner = subprocess.Popen([sys.executable, "-c", SPIN]) if busy else None
+            time.sleep(0.2 if busy else 0)
+            start = time.perf_counter()
+            for a in actions:
+                batch.step(a)
+            times.append(time.perf_counter() - start)
+            if spinner is not None:
+                spinner.kill()
+                spinner.wait()
+    for (threads, busy), times in arms.items():
+        rate = steps * 25 / statistics.median(times)
+        print(f"{threads} thread(s), {'busy' if busy else 'quiet'}: median {statistics.median(times):.2f} s "
+              f"({rate:,.0f} env steps/s; {', '.join(f'{t:.2f}' for t in times)}; load {os.getloadavg()[0]:.1f})")
+    quiet = min(statistics.median(arms[(t, False)]) for t in sorted({1, cpus}))
+    for threads in sorted({1, cpus}):
+        ratio = statistics.median(arms[(threads, True)]) / quiet
+        print(f"busy with {threads} thread(s) / quiet with the faster choice: x{ratio:.2f}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--engine-only", action="store_true", help="time the engine's batch step alone")
+    args = parser.parse_args()
+    if args.engine_only:
+        engine_only(args.repeats)
+        return
+    cpus = os.cpu_count() or 1
+    arms = {"auto, quiet": ("auto", False), "auto, busy": ("auto", True), f"{cpus} threads, busy": (str(cpus), True)}
+    times: dict[str, list[float]] = {arm: [] for arm in arms}
+    with tempfile.TemporaryDirectory() as tmp:
+        for repeat in range(args.repeats):
+            for arm, (threads, busy) in arms.items():
+                seconds = run(threads, busy, Path(tmp) / f"{repeat}-{len(times[arm])}-{threads}-{busy}")
+                times[arm].append(seconds)
+                print(f"repeat {repeat}: {arm:>18}: {seconds:6.1f} s  (load {os.getloadavg()[0]:.1f})", flush=True)
+    medians = {arm: statistics.median(t) for arm, t in times.items()}
+    for arm, median in medians.items():
+        print(f"{arm:>18}: median {median:6.1f} s  ({', '.join(f'{t:.1f}' for t in times[arm])})")
+    quiet = medians["auto, quiet"]
+    print(f"busy / quiet, auto: x{medians['auto, busy'] / quiet:.2f}  (goal: at most x1.3)")
+    print(f"busy / quiet, {cpus} threads when busy: x{medians[f'{cpus} threads, busy'] / quiet:.2f}")
+
+
+if __name__ == "__main__":
+    main()
