@@ -5,9 +5,9 @@ Ray is an optional extra (``pip install 'gdabench[ray]'``) imported only when it
 (:mod:`gdabench.execution.workers`), for trials and evaluations alike.  Evaluation actors are
 supervised by the same pool as local processes (:mod:`gdabench.execution.pool`): each builds the
 environment once, takes one batch of bodies at a time, and a batch that kills its actor or runs past
-the timeout costs only its own evaluations while a fresh actor takes the dead one's place.  Because a batch is only sent to
-an idle, ready actor, the timeout measures the evaluation, not time spent queued on a busy
-cluster or starting a worker.  The designer stays in the driver.
+the timeout costs only its own evaluations while a fresh actor takes the dead one's place.  Because a
+batch is only sent to an idle, ready actor, the timeout measures the evaluation, not time spent queued
+on a busy cluster or starting a worker.  The designer stays in the driver.
 """
 
 from __future__ import annotations
