@@ -1,9 +1,11 @@
 """Execution: evaluating bodies, in this process, local processes or on Ray.
 
 * :mod:`.evaluation`: scoring a batch of bodies, every failure turned into a recorded outcome;
-* :mod:`.executor`, :mod:`.pool`, :mod:`.ray`: evaluation executors (serial, a supervised pool
-  of local processes, Ray actors), chosen by :func:`make_executor` from the :class:`Execution`
-  options (:mod:`.options`);
+* :mod:`.workers`, :mod:`.ray`: the one worker layer, for trials and evaluations alike: a server
+  object in this process, in spawned local processes or in Ray actors, answering calls without the
+  caller waiting;
+* :mod:`.executor`, :mod:`.pool`: evaluation executors (serial, or a supervised pool of workers,
+  local or Ray), chosen by :func:`make_executor` from the :class:`Execution` options (:mod:`.options`);
 * :mod:`.cache`: an opt-in cache of rewards shared across runs.
 
 What an evaluation is given and gives back (:class:`EvalTask`, :class:`EvalOutcome`) and how a controller

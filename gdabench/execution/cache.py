@@ -58,11 +58,47 @@ def plain(value: Any) -> Any:
     raise TypeError(f"{type(value).__name__} is not a plain value")
 
 
-class EvaluationCache:
+class OutcomeStore:
+    """Successful outcomes on disk under ``root``, one small JSON file per key (``root/ab/ab….json``).
+
+    Shared by the cache and the run's own record (:mod:`gdabench.running.outcomes`), which differ in
+    what a key covers.  Entries are written atomically (a temporary file, then a rename), so any
+    number of processes may read and write at once and a kill never leaves half an entry.
+    """
+
+    def __init__(self, root: str | Path):
+        self.root = Path(root)
+
+    def path(self, key: str) -> Path:
+        return self.root / key[:2] / f"{key}.json"
+
+    def load(self, key: str) -> dict[str, Any] | None:
+        """The entry under ``key``, or None (missing or unreadable)."""
+        try:
+            entry = json.loads(self.path(key).read_text())
+        except (OSError, ValueError):
+            return None
+        return entry if isinstance(entry, dict) else None
+
+    def store(self, key: str, outcome: EvalOutcome, **fields: Any) -> bool:
+        """Write ``outcome`` (and ``fields``) under ``key`` if it is worth keeping: successful, computed here
+        (not taken from a cache), with an ``info`` that survives JSON; returns whether it was written."""
+        if outcome.status != OK or outcome.cached:
+            return False
+        try:
+            info = plain(dict(outcome.info))
+        except TypeError:
+            return False  # an extra column that does not survive JSON would come back different
+        entry = {"reward": outcome.reward, "seconds": outcome.seconds, "info": info, **fields}
+        atomic_write_bytes(self.path(key), (json.dumps(entry, sort_keys=True) + "\n").encode())
+        return True
+
+
+class EvaluationCache(OutcomeStore):
     """Rewards on disk under ``root``, keyed by configuration, body hash and evaluation seed."""
 
     def __init__(self, root: str | Path, context: Mapping[str, Any]):
-        self.root = Path(root)
+        super().__init__(root)
         try:
             self.root.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
@@ -76,33 +112,15 @@ class EvaluationCache:
         text = f"{self._context_json}|{task.body.hash}|{task.seed}"
         return hashlib.sha256(text.encode()).hexdigest()
 
-    def path(self, key: str) -> Path:
-        return self.root / key[:2] / f"{key}.json"
-
     def get(self, task: EvalTask) -> EvalOutcome | None:
         """The cached outcome of ``task`` (marked ``cached``), or None; unreadable entries are misses."""
+        entry = self.load(self.key(task)) or {}
         try:
-            entry = json.loads(self.path(self.key(task)).read_text())
             return EvalOutcome(float(entry["reward"]), OK, "", 0.0, dict(entry["info"]), cached=True)
-        except (OSError, ValueError, KeyError, TypeError):
+        except (ValueError, KeyError, TypeError):
             return None
 
     def put(self, task: EvalTask, outcome: EvalOutcome) -> bool:
         """Store a successful outcome; returns False when it is not cacheable."""
-        if outcome.status != OK or outcome.cached:
-            return False
-        try:
-            info = plain(dict(outcome.info))
-        except TypeError:
-            return False  # an extra column that does not survive JSON would come back different
-        entry = {
-            "reward": outcome.reward,
-            "info": info,
-            "seconds": outcome.seconds,
-            "body": task.body.text,
-            "seed": task.seed,
-            "created": utc_now(),
-            "context": self.context,
-        }
-        atomic_write_bytes(self.path(self.key(task)), (json.dumps(entry, sort_keys=True) + "\n").encode())
-        return True
+        fields = {"body": task.body.text, "seed": task.seed, "created": utc_now(), "context": self.context}
+        return self.store(self.key(task), outcome, **fields)

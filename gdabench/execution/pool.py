@@ -11,24 +11,19 @@ knows which batch a worker runs:
   lockstep cannot stop one body) has its worker killed and replaced, and becomes ``timeout`` rows;
 * every other batch is unaffected, so no outcome depends on what failed around it.
 
-Workers build the run's environment and controller before they report ready, so start-up is
-not charged to the first evaluation's timeout.  The pool logic is shared; a :class:`Backend`
-says what a worker is: a local process (:class:`ProcessBackend`, here) or a Ray actor
-(:mod:`gdabench.execution.ray`).
+Workers build the run's environment and controller (an :class:`Evaluator`) before they answer
+that they are ready, so start-up is not charged to the first evaluation's timeout.  The workers
+are the harness's one worker layer (:mod:`gdabench.execution.workers`): local processes here,
+Ray actors in :mod:`gdabench.execution.ray`.
 """
 
 from __future__ import annotations
 
-import abc
+import functools
 import math
-import multiprocessing
-import os
-import signal
-import threading
 import time
 from collections import deque
 from dataclasses import dataclass, field
-from multiprocessing.connection import Connection, wait
 from typing import Any, Sequence
 
 from .. import spawning
@@ -38,24 +33,42 @@ from ..statuses import ERROR, TIMEOUT
 from ..strategy import EvalOutcome, EvalTask
 from .evaluation import evaluate_batch, prepare
 from .executor import Executor, batches
+from .workers import LocalProcesses, Tell, WorkerGone, Workers
 
 #: seconds the pool waits for its first worker to import gdabench and build the environment
 #: (workers that start later, e.g. queued on a busy Ray cluster, may take as long as they need)
 START_TIMEOUT = 300.0
-READY, RESULT, DIED = "ready", "result", "died"
+
+
+class Evaluator:
+    """An evaluation worker's server: builds the environment and controller once, evaluates one batch per call."""
+
+    def __init__(self, warm: Sequence[Factory], tell: Tell | None = None):
+        spawning.one_core()
+        prepare(warm)
+
+    def ready(self) -> bool:
+        return True
+
+    def evaluate(self, tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
+        return evaluate_batch(tasks)
+
+    def close(self) -> None:
+        """Nothing to release: the built environment and controller go with the process."""
+
+
+def evaluators(warm: Sequence[Factory]) -> functools.partial[Evaluator]:
+    """What builds an evaluation worker's server, given the recipes it builds before its first body."""
+    return functools.partial(Evaluator, tuple(warm))
 
 
 class WorkerStartError(GdabenchError):
     """A worker could not start (it died or hung while importing or building the environment)."""
 
 
-class WorkerGone(Exception):
-    """A task could not be handed to a worker because the worker is no longer there."""
-
-
 @dataclass(eq=False)
 class Slot:
-    """One place in the pool: the backend's worker and the batch it runs (indices of its tasks)."""
+    """One place in the pool: a worker and the batch it runs (indices of its tasks)."""
 
     worker: Any
     ready: bool = False
@@ -64,44 +77,27 @@ class Slot:
     born: float = field(default_factory=time.monotonic)
 
 
-class Backend(abc.ABC):
-    """What a worker is and how to talk to it."""
-
-    @abc.abstractmethod
-    def start(self) -> Any:
-        """Start a worker; it reports READY (through :meth:`wait`) once it can take tasks."""
-
-    @abc.abstractmethod
-    def send(self, worker: Any, tasks: Sequence[EvalTask]) -> None:
-        """Hand a batch to an idle worker; raise :class:`WorkerGone` if it is not there any more."""
-
-    @abc.abstractmethod
-    def wait(self, slots: Sequence[Slot], timeout: float | None) -> list[tuple[Slot, str, Any]]:
-        """Block up to ``timeout`` s for events: (slot, READY, None), (slot, RESULT, outcomes of its batch),
-        (slot, DIED, message)."""
-
-    @abc.abstractmethod
-    def kill(self, worker: Any) -> None:
-        """Stop a worker now, whatever it is doing."""
-
-    def stop(self, workers: Sequence[Any]) -> None:
-        """Stop idle workers (default: kill them)."""
-        for worker in workers:
-            self.kill(worker)
-
-
 class WorkerPool:
-    """``size`` supervised workers; :meth:`map` returns outcomes in task order."""
+    """``size`` supervised evaluation workers (servers made by :func:`evaluators`); :meth:`map` returns
+    outcomes in task order."""
 
-    def __init__(self, backend: Backend, size: int, *, timeout: float | None = None):
-        self.backend, self.size, self.timeout = backend, size, timeout
+    def __init__(self, workers: Workers, size: int, *, timeout: float | None = None):
+        self.workers, self.size, self.timeout = workers, size, timeout
         self.slots: list[Slot] = []
+
+    def _start(self) -> Slot:
+        worker = self.workers.start()
+        try:
+            self.workers.call(worker, "ready")  # answered once the worker has built its environment
+        except WorkerGone:
+            pass  # it died at once: its death is the answer
+        return Slot(worker)
 
     def map(self, tasks: Sequence[EvalTask], batch: int = 1) -> list[EvalOutcome]:
         outcomes: list[EvalOutcome | None] = [None] * len(tasks)
         queue = deque(batches(tasks, self.size, batch))
         while len(self.slots) < min(self.size, len(queue)):
-            self.slots.append(Slot(self.backend.start()))
+            self.slots.append(self._start())
         try:
             while queue or any(s.task is not None for s in self.slots):
                 for slot in self.slots:
@@ -118,7 +114,7 @@ class WorkerPool:
     ) -> None:
         part = queue.popleft()
         try:
-            self.backend.send(slot.worker, [tasks[i] for i in part])
+            self.workers.call(slot.worker, "evaluate", [tasks[i] for i in part])
         except WorkerGone:
             queue.appendleft(part)  # the worker died while idle: not this batch's fault
             self._replace(slot)
@@ -143,27 +139,27 @@ class WorkerPool:
         any_ready = any(s.ready for s in self.slots)
         deadlines = [d for d in (self._deadline(s, any_ready) for s in live) if d is not None]
         timeout = max(0.0, min(deadlines) - time.monotonic()) if deadlines else None
-        for slot, kind, payload in self.backend.wait(live, timeout):
-            if kind == READY:
+        by_worker = {slot.worker: slot for slot in live}
+        for answer in self.workers.wait(list(by_worker), timeout):
+            slot = by_worker[answer.worker]
+            if not slot.ready:
+                if not answer.ok:
+                    self._discard(slot)
+                    raise WorkerStartError(f"a worker could not start: {answer.value}")
                 slot.ready = True
-            elif not slot.ready:
-                self._discard(slot)
-                raise WorkerStartError(
-                    f"a worker could not start: {payload if kind == DIED else 'it answered before it was ready'}"
-                )
-            elif kind == RESULT:
+            elif answer.ok:
                 assert slot.task is not None
-                if isinstance(payload, EvalOutcome):  # one outcome for the whole batch (it could not run)
-                    _fill(outcomes, slot.task, payload)
-                else:
-                    for i, outcome in zip(slot.task, payload):
-                        outcomes[i] = outcome
+                for i, outcome in zip(slot.task, answer.value):
+                    outcomes[i] = outcome
                 slot.task = None
-            else:
+            else:  # the batch could not run or come back, or its worker died: every body of it is an error
                 assert slot.task is not None
                 share = (time.monotonic() - slot.started) / len(slot.task)
-                _fill(outcomes, slot.task, EvalOutcome(math.nan, ERROR, payload, share))
-                self._replace(slot)
+                _fill(outcomes, slot.task, EvalOutcome(math.nan, ERROR, answer.value, share))
+                if answer.died:
+                    self._replace(slot)
+                else:
+                    slot.task = None
         now = time.monotonic()
         for slot in live:
             deadline = self._deadline(slot, any_ready)
@@ -180,20 +176,20 @@ class WorkerPool:
             self._replace(slot)
 
     def _discard(self, slot: Slot) -> None:
-        self.backend.kill(slot.worker)
+        self.workers.kill(slot.worker)
         self.slots.remove(slot)
 
     def _replace(self, slot: Slot) -> None:
-        self.backend.kill(slot.worker)
-        self.slots[self.slots.index(slot)] = Slot(self.backend.start())
+        self.workers.kill(slot.worker)
+        self.slots[self.slots.index(slot)] = self._start()
 
     def close(self) -> None:
         """Stop every worker: idle ones are asked to finish, busy or starting ones are killed."""
         idle = [s.worker for s in self.slots if s.ready and s.task is None]
         for slot in self.slots:
             if not (slot.ready and slot.task is None):
-                self.backend.kill(slot.worker)
-        self.backend.stop(idle)
+                self.workers.kill(slot.worker)
+        self.workers.close(idle)
         self.slots = []
 
 
@@ -202,131 +198,23 @@ def _fill(outcomes: list[EvalOutcome | None], part: Sequence[int], outcome: Eval
         outcomes[i] = outcome
 
 
-# -- local processes -------------------------------------------------------------------------------
-def exit_when_orphaned(parent: int) -> None:
-    while True:
-        time.sleep(1.0)
-        if os.getppid() != parent:
-            os._exit(0)  # the driver is gone (killed): nobody will read our results
+class PoolExecutor(Executor):
+    """A supervised pool of ``size`` evaluation workers; a dead or hung worker costs only its own batch."""
 
-
-def _serve(conn: Connection, warm: Sequence[Factory], parent: int) -> None:
-    """Worker process main loop: evaluate the batches the driver sends, one at a time.
-
-    Ctrl-C is ignored (the driver decides what an interrupt means), and the worker exits by
-    itself when the driver dies, even in the middle of a hung evaluation.
-    """
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    threading.Thread(target=exit_when_orphaned, args=(parent,), daemon=True).start()
-    spawning.one_core()
-    prepare(warm)
-    try:
-        conn.send(READY)
-    except OSError:  # the driver is gone (stopped while this worker started): nobody to tell
-        return
-    while True:
-        try:
-            tasks = conn.recv()
-        except (EOFError, OSError):  # the driver is gone
-            return
-        if tasks is None:
-            return
-        outcomes = evaluate_batch(tasks)
-        try:
-            conn.send(outcomes)
-        except OSError:  # the driver is gone
-            return
-        except Exception as exc:  # noqa: BLE001 - e.g. an info value that does not pickle
-            message = f"result could not be sent to the driver: {one_line(exc)}"
-            conn.send(EvalOutcome(math.nan, ERROR, message, outcomes[0].seconds))
-
-
-def death_message(exitcode: int | None) -> str:
-    if exitcode is not None and exitcode < 0:
-        try:
-            return f"worker process died (killed by {signal.Signals(-exitcode).name})"
-        except ValueError:
-            pass
-    return f"worker process died (exit code {exitcode})"
-
-
-@dataclass(eq=False)
-class _Process:
-    process: multiprocessing.process.BaseProcess
-    conn: Connection
-
-
-class ProcessBackend(Backend):
-    """Workers are spawned local processes (spawn is safe with torch and threads), one pipe each."""
-
-    def __init__(self, warm: Sequence[Factory] = ()):
-        self.warm = tuple(warm)
-        self._ctx = multiprocessing.get_context("spawn")
-
-    def start(self) -> _Process:
-        driver_end, worker_end = self._ctx.Pipe()
-        process = spawning.process(
-            self._ctx, _serve, (worker_end, self.warm, os.getpid()), daemon=True, name="gdabench-worker"
-        )
-        spawning.start(process)
-        worker_end.close()
-        return _Process(process, driver_end)
-
-    def send(self, worker: _Process, tasks: Sequence[EvalTask]) -> None:
-        try:
-            worker.conn.send(list(tasks))  # pickles first: a task that does not pickle writes nothing
-        except (BrokenPipeError, ConnectionError, EOFError) as exc:
-            raise WorkerGone from exc
-
-    def wait(self, slots: Sequence[Slot], timeout: float | None) -> list[tuple[Slot, str, Any]]:
-        by_handle: dict[Any, Slot] = {}
-        for slot in slots:
-            by_handle[slot.worker.conn] = by_handle[slot.worker.process.sentinel] = slot
-        ready = wait(list(by_handle), timeout)
-        events: list[tuple[Slot, str, Any]] = []
-        for slot in dict.fromkeys(by_handle[r] for r in ready):  # each slot once, conn before sentinel
-            worker = slot.worker
-            if worker.conn.poll():
-                try:
-                    message = worker.conn.recv()
-                except (EOFError, OSError):
-                    message = None
-                except Exception as exc:  # noqa: BLE001 - a result the driver cannot unpickle
-                    message = EvalOutcome(math.nan, ERROR, f"result could not be read from the worker: {one_line(exc)}")
-                if message is not None:
-                    events.append((slot, READY, None) if message == READY else (slot, RESULT, message))
-                    continue
-            worker.process.join(5)
-            events.append((slot, DIED, death_message(worker.process.exitcode)))
-        return events
-
-    def kill(self, worker: _Process) -> None:
-        if worker.process.is_alive():
-            worker.process.kill()
-        worker.process.join(5)
-        worker.conn.close()
-
-    def stop(self, workers: Sequence[_Process]) -> None:
-        for worker in workers:
-            try:
-                worker.conn.send(None)
-            except (OSError, ValueError):
-                pass
-        deadline = time.monotonic() + 5
-        for worker in workers:
-            worker.process.join(max(0.0, deadline - time.monotonic()))
-            self.kill(worker)
-
-
-class ProcessExecutor(Executor):
-    """Local worker processes; a dead or hung worker costs only its own evaluation."""
-
-    def __init__(self, workers: int, *, timeout: float | None = None, warm: Sequence[Factory] = ()):
-        self.workers = workers
-        self._pool = WorkerPool(ProcessBackend(warm), workers, timeout=timeout)
+    def __init__(self, workers: Workers, size: int, timeout: float | None):
+        self.workers = size
+        self._pool = WorkerPool(workers, size, timeout=timeout)
 
     def map(self, tasks: Sequence[EvalTask], batch: int = 1) -> list[EvalOutcome]:
         return self._pool.map(tasks, batch)
 
     def close(self) -> None:
         self._pool.close()
+
+
+class ProcessExecutor(PoolExecutor):
+    """Local worker processes."""
+
+    def __init__(self, workers: int, *, timeout: float | None = None, warm: Sequence[Factory] = ()):
+        local = LocalProcesses(evaluators(warm), label="worker", name="gdabench-worker", daemon=True, grace=5)
+        super().__init__(local, workers, timeout)

@@ -1,31 +1,27 @@
-"""Evaluating bodies on Ray: a local Ray instance, or an existing cluster (``--ray-address``).
+"""Workers on Ray: a local Ray instance, or an existing cluster (``--ray-address``).
 
-Ray is an optional extra (``pip install 'gdabench[ray]'``) imported only when this executor is
-chosen.  The workers are Ray actors (1 CPU each, never restarted), supervised by the same pool
-as local processes (:mod:`gdabench.execution.pool`): each actor builds the environment once, takes
-one batch of bodies at a time, and a batch that kills its actor or runs past the timeout costs only
-its own evaluations while a fresh actor takes the dead one's place.  Because a batch is only sent to
-an idle, ready actor, the timeout measures the evaluation, not time spent queued on a busy
-cluster or starting a worker.  The designer stays in the driver.
+Ray is an optional extra (``pip install 'gdabench[ray]'``) imported only when it is chosen.
+:class:`RayActors` are the Ray implementation of the one worker layer
+(:mod:`gdabench.execution.workers`), for trials and evaluations alike.  Evaluation actors are
+supervised by the same pool as local processes (:mod:`gdabench.execution.pool`): each builds the
+environment once, takes one batch of bodies at a time, and a batch that kills its actor or runs past
+the timeout costs only its own evaluations while a fresh actor takes the dead one's place.  Because a
+batch is only sent to an idle, ready actor, the timeout measures the evaluation, not time spent queued
+on a busy cluster or starting a worker.  The designer stays in the driver.
 """
 
 from __future__ import annotations
 
 import logging
-import math
 import os
 import sys
 from dataclasses import dataclass
 from typing import Any, Sequence
 
-from .. import spawning
 from ..errors import ConfigError, one_line
 from ..specs import Factory
-from ..statuses import ERROR
-from ..strategy import EvalOutcome, EvalTask
-from .evaluation import evaluate_batch, prepare
-from .executor import Executor
-from .pool import DIED, READY, RESULT, Backend, Slot, WorkerGone, WorkerPool
+from .pool import PoolExecutor, evaluators
+from .workers import Answer, Make, WorkerGone, Workers, answer
 
 
 def import_ray() -> Any:
@@ -36,66 +32,74 @@ def import_ray() -> Any:
     return ray
 
 
-class Evaluator:
-    """The actor: holds the environment and controller, evaluates one batch of bodies per call."""
+class Served:
+    """The actor: builds a worker's server and answers calls on it (no notes: ``make`` is given None)."""
 
-    def __init__(self, warm: Sequence[Factory]):
-        spawning.one_core()
-        prepare(warm)
+    def __init__(self, make: Make):
+        self.server = make(None)
 
-    def ready(self) -> bool:
-        return True
-
-    def evaluate(self, tasks: Sequence[EvalTask]) -> list[EvalOutcome]:
-        return evaluate_batch(tasks)
+    def call(self, method: str, args: Sequence[Any]) -> tuple[bool, Any]:
+        return answer(self.server, method, args)
 
 
 @dataclass(eq=False)
 class _Actor:
     handle: Any
-    pending: Any  # ObjectRef of the call in flight: ready() first, then each evaluate()
+    pending: Any = None  # ObjectRef of the call in flight
 
 
-class RayBackend(Backend):
-    def __init__(self, ray: Any, warm: Sequence[Factory]):
-        self.ray, self.warm = ray, tuple(warm)
-        self._cls = ray.remote(num_cpus=1, max_restarts=0, max_task_retries=0)(Evaluator)
+class RayActors(Workers):
+    """Workers as Ray actors (1 CPU each, never restarted), on a local Ray instance or a cluster.
+
+    ``label`` names them in messages ("worker process died: ..."); ``close`` gives idle workers
+    ``grace`` seconds to close their servers.
+    """
+
+    def __init__(self, ray: Any, make: Make, *, label: str, grace: float):
+        self.ray, self.make, self.label, self.grace = ray, make, label, grace
+        self._cls = ray.remote(num_cpus=1, max_restarts=0, max_task_retries=0)(Served)
 
     def start(self) -> _Actor:
-        handle = self._cls.remote(self.warm)
-        return _Actor(handle, handle.ready.remote())
+        return _Actor(self._cls.remote(self.make))
 
-    def send(self, worker: _Actor, tasks: Sequence[EvalTask]) -> None:
+    def call(self, worker: _Actor, method: str, *args: Any) -> None:
         try:
-            worker.pending = worker.handle.evaluate.remote(list(tasks))
+            worker.pending = worker.handle.call.remote(method, args)
         except self.ray.exceptions.RayActorError as exc:
             raise WorkerGone from exc
 
-    def wait(self, slots: Sequence[Slot], timeout: float | None) -> list[tuple[Slot, str, Any]]:
+    def wait(self, workers: Sequence[_Actor], timeout: float | None = None) -> list[Answer]:
         ray = self.ray
-        by_ref = {slot.worker.pending: slot for slot in slots}
+        by_ref = {worker.pending: worker for worker in workers}
         done, _ = ray.wait(list(by_ref), num_returns=1, timeout=timeout)
         if done:  # collect everything else that finished meanwhile
             done, _ = ray.wait(list(by_ref), num_returns=len(by_ref), timeout=0)
-        events: list[tuple[Slot, str, Any]] = []
+        answers = []
         for ref in done:
-            slot = by_ref[ref]
+            worker = by_ref[ref]
             try:
-                value = ray.get(ref)
-            except ray.exceptions.RayActorError:
-                events.append((slot, DIED, "worker process died"))
-                continue
-            except ray.exceptions.RayError as exc:  # e.g. the task could not be unpickled on the worker
-                if not slot.ready:
-                    events.append((slot, DIED, f"ray: {one_line(exc)}"))
-                else:
-                    events.append((slot, RESULT, EvalOutcome(math.nan, ERROR, f"ray: {one_line(exc)}")))
-                continue
-            events.append((slot, RESULT, value) if slot.ready else (slot, READY, None))
-        return events
+                answers.append(Answer(worker, *ray.get(ref)))
+            except ray.exceptions.RayActorError as exc:
+                answers.append(Answer(worker, False, f"{self.label} process died: {one_line(exc)}", died=True))
+            except ray.exceptions.RayError as exc:  # e.g. an argument that could not be unpickled there
+                answers.append(Answer(worker, False, f"ray: {one_line(exc)}"))
+        return answers
 
     def kill(self, worker: _Actor) -> None:
         self.ray.kill(worker.handle, no_restart=True)
+
+    def close(self, workers: Sequence[_Actor]) -> None:
+        """Ask idle workers to close their servers (best effort, ``grace`` s in all), then kill them."""
+        closing = []
+        for worker in workers:
+            try:
+                closing.append(worker.handle.call.remote("close", ()))
+            except Exception:  # noqa: BLE001 - closing is best effort; the kill below is not
+                pass
+        if closing:
+            self.ray.wait(closing, num_returns=len(closing), timeout=self.grace)
+        for worker in workers:
+            self.kill(worker)
 
 
 class RayConnection:
@@ -139,19 +143,15 @@ class RayConnection:
         self.close()
 
 
-class RayExecutor(Executor):
+class RayExecutor(PoolExecutor):
     """A pool of ``workers`` Ray actors evaluating one batch each at a time."""
 
     def __init__(
         self, workers: int, *, address: str | None = None, timeout: float | None = None, warm: Sequence[Factory] = ()
     ):
         self._connection = RayConnection(address, workers)
-        self.workers = workers
-        self._pool = WorkerPool(RayBackend(self._connection.ray, warm), workers, timeout=timeout)
-
-    def map(self, tasks: Sequence[EvalTask], batch: int = 1) -> list[EvalOutcome]:
-        return self._pool.map(tasks, batch)
+        super().__init__(RayActors(self._connection.ray, evaluators(warm), label="worker", grace=5), workers, timeout)
 
     def close(self) -> None:
-        self._pool.close()
+        super().close()
         self._connection.close()

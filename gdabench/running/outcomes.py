@@ -17,42 +17,40 @@ column is about ``--cache``).  The folder is removed when the run completes.
 from __future__ import annotations
 
 import hashlib
-import json
 import shutil
 from pathlib import Path
 
 from .. import faults
-from ..execution.cache import plain
-from ..results import atomic_write_bytes
+from ..execution.cache import OutcomeStore
 from ..statuses import OK
 from ..strategy import EvalOutcome, EvalTask
 
 OUTCOMES = "outcomes"
 
 
-class RunOutcomes:
+class RunOutcomes(OutcomeStore):
     """Successful outcomes of the run in ``run_path``, by task (body, evaluation seed, recipes)."""
 
     def __init__(self, run_path: Path):
         self.run_path = Path(run_path)
-        self.root = self.run_path / OUTCOMES
+        super().__init__(self.run_path / OUTCOMES)
 
-    def _path(self, task: EvalTask) -> Path:
+    def _key(self, task: EvalTask) -> str:
         recipes = (task.env.key(), task.controller.key() if task.controller is not None else None)
         text = f"{recipes!r}|{task.body.hash}|{task.seed}"
         if task.parents:  # an inheriting controller's reward depends on the parents' files too
-            text += "|" + ",".join(str(p.relative_to(self.run_path)) if p.is_relative_to(self.run_path) else str(p)
-                                   for p in task.parents)
-        key = hashlib.sha256(text.encode()).hexdigest()
-        return self.root / key[:2] / f"{key}.json"
+            text += "|" + ",".join(
+                str(p.relative_to(self.run_path)) if p.is_relative_to(self.run_path) else str(p) for p in task.parents
+            )
+        return hashlib.sha256(text.encode()).hexdigest()
 
     def get(self, task: EvalTask) -> EvalOutcome | None:
         """The outcome recorded for ``task`` (its files copied to the task's workdir), or None."""
+        entry = self.load(self._key(task)) or {}
         try:
-            entry = json.loads(self._path(task).read_text())
             outcome = EvalOutcome(float(entry["reward"]), OK, "", float(entry["seconds"]), dict(entry["info"]))
             source = self.run_path / entry["workdir"] if entry["workdir"] else None
-        except (OSError, ValueError, KeyError, TypeError):
+        except (ValueError, KeyError, TypeError):
             return None
         if source is not None and task.workdir is not None and source != task.workdir and source.is_dir():
             shutil.copytree(source, task.workdir, dirs_exist_ok=True)
@@ -60,25 +58,11 @@ class RunOutcomes:
 
     def put(self, task: EvalTask, outcome: EvalOutcome) -> None:
         """Record a successful outcome computed in this run (not one taken from ``--cache``)."""
-        if outcome.status != OK or outcome.cached:
-            return
-        try:
-            info = plain(dict(outcome.info))
-        except TypeError:
-            return  # an extra column that does not survive JSON would come back different
         workdir = None
         if task.workdir is not None and task.workdir.is_relative_to(self.run_path):
             workdir = str(task.workdir.relative_to(self.run_path))
-        entry = {
-            "reward": outcome.reward,
-            "seconds": outcome.seconds,
-            "info": info,
-            "body": task.body.text,
-            "seed": task.seed,
-            "workdir": workdir,
-        }
-        atomic_write_bytes(self._path(task), (json.dumps(entry, sort_keys=True) + "\n").encode())
-        faults.point("outcome-stored")
+        if self.store(self._key(task), outcome, body=task.body.text, seed=task.seed, workdir=workdir):
+            faults.point("outcome-stored")
 
     def discard(self) -> None:
         """Remove the record (the run is complete: nothing is left to resume or share)."""

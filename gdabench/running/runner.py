@@ -26,6 +26,7 @@ from .. import faults, spawning
 from ..cpu import cpu_count
 from ..errors import GdabenchError, RunDirectoryError, Terminated, TrialError, one_line
 from ..execution.options import Execution
+from ..execution.workers import InProcess, Workers
 from ..experiment.build import RunSetup, setup_run
 from ..experiment.config import Experiment
 from ..experiment.plan import Plan
@@ -45,7 +46,7 @@ from ..results import (
 from ..stats.summary import failure_counts, nothing_measured, summarize
 from . import cores
 from .events import Listeners, PluginHooks, RunListener
-from .hosts import BodiesDone, InProcess, LocalProcesses, TrialHost, TrialWorkers
+from .hosts import BodiesDone, TrialHost, trial_actors, trial_workers
 from .outcomes import RunOutcomes
 from .reevaluation import reevaluate_run
 from .trial import GenerationResult
@@ -227,16 +228,15 @@ class _SpareCores:
 
 @contextlib.contextmanager
 def _trial_workers(plan: Plan, run: RunDirectory, execution: Execution, trials: int,
-                   listener: RunListener) -> Iterator[tuple[TrialWorkers, int, _SpareCores | None]]:
+                   listener: RunListener) -> Iterator[tuple[Workers, int, _SpareCores | None]]:
     """Where this run's trials go, how many at once, and the cores they may borrow."""
     run_id = run.meta["run_id"]
     if execution.executor == "ray":
         from ..execution.ray import RayConnection
-        from .hosts import RayActors
 
         with RayConnection(execution.ray_address) as connection:
             yield (
-                RayActors(connection.ray, run_id, run.path, execution),
+                trial_actors(connection.ray, run_id, run.path, execution),
                 execution.jobs_for(trials, connection.cpus()),
                 None,
             )
@@ -244,7 +244,7 @@ def _trial_workers(plan: Plan, run: RunDirectory, execution: Execution, trials: 
     jobs = execution.jobs_for(trials)
     spare = _SpareCores(execution.jobs or cpu_count()) if execution.workers == 1 else None
     if jobs > 1:
-        yield LocalProcesses(run_id, run.path, execution, spare.count if spare else None), jobs, spare
+        yield trial_workers(run_id, run.path, execution, spare.count if spare else None), jobs, spare
         return
     if spare is not None:  # the trials run here, in this process
         cores.install(spare.count, multiprocessing.Value("i", 0, lock=False))

@@ -120,8 +120,11 @@ def _check_cppn(config: neat.Config, parser: configparser.ConfigParser, source: 
     def bad(key: str, value: object, why: str) -> ConfigError:
         return ConfigError(f"cppn config {source}: [DefaultGenome] {key} = {value}: {why}")
 
-    # neat-python silently ignores unknown [DefaultGenome] entries (a typo would go unnoticed)
-    known = {p.name for p in g._params}
+    # neat-python silently ignores unknown [DefaultGenome] entries (a typo would go unnoticed); the
+    # entries it knows are the ones its public ``save`` writes
+    written = io.StringIO()
+    g.save(written)
+    known = {line.split("=", 1)[0].strip() for line in written.getvalue().splitlines() if "=" in line}
     for key, value in parser.items("DefaultGenome"):
         if key not in known:
             raise bad(key, value, "unknown configuration item")
