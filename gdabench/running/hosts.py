@@ -86,13 +86,16 @@ class TrialHost:
         controller = instance(spec.controller) if spec.controller else None
         batch = self.execution.batch or (controller or env).bodies_at_once
         evaluate: Evaluate = functools.partial(self._executor.map, batch=batch)
-        # an inheriting controller's reward depends on the trial's history, which the cache does not key
-        if self.execution.cache is not None and spec.cache_context is not None and not self.trial.inherits:
+        # an inheriting controller's reward depends on the trial's history, which the cache does not key; one whose
+        # bodies learn together also on the generation, and it replays a resumed generation itself
+        history = self.trial.inherits or bool(getattr(controller, "learns_across_bodies", False))
+        if self.execution.cache is not None and spec.cache_context is not None and not history:
             evaluate = cached(evaluate, EvaluationCache(self.execution.cache, spec.cache_context))
         # deterministic environments only; a Ray cluster's nodes may not see the run directory
         outcomes = (
             RunOutcomes(self.run_path)
             if spec.cache_context is not None and self.execution.executor == "local"
+            and not getattr(controller, "learns_across_bodies", False)
             else None
         )
         evaluate = body_by_body(evaluate, self.execution.workers * batch, outcomes, self._report)
