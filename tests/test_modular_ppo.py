@@ -85,8 +85,13 @@ def test_parameters_are_checked_before_a_run_in_one_line_and_info_lists_them(tmp
         bad = runner.invoke(app, [*base, "--controller", controller, "--out", str(tmp_path / "bad")])
         assert bad.exit_code == 2 and error_lines(bad) == [says], bad.stderr
     assert not (tmp_path / "bad").exists()
-    split = runner.invoke(app, [*base, "--controller", "modular-ppo", "--workers", "2", "--out", str(tmp_path / "s")])
-    assert split.exit_code == 2 and "learns a generation's bodies together" in split.stderr
+    for split in (["--workers", "2"], ["--batch", "2"]):  # a generation of 3 would be split
+        refused = runner.invoke(app, [*base, "--controller", CONTROLLER, *split, "--out", str(tmp_path / "s")])
+        assert refused.exit_code == 2, refused.stderr
+        assert error_lines(refused) == [
+            f"error: controller {CONTROLLER!r} learns a generation's bodies together: use --workers 1 and no --batch "
+            "below the population (3)"
+        ]
     info = runner.invoke(app, ["info", "modular-ppo"])
     assert info.exit_code == 0 and "batch_size" in info.stdout and "minibatch size per body" in info.stdout
     assert "init" not in info.stdout.split()
