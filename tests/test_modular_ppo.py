@@ -40,9 +40,9 @@ def test_the_policy_is_carried_on_the_same_in_memory_and_from_disk_and_a_saved_b
     """Generation 1 (two bodies), then generation 2 (one): in one process, and with generation 2 in a new
     controller that reads the policy generation 1 left from the trial's folder, as a resumed run does."""
     dirs = [tmp_path / as_body(b).hash for b in BODIES]
-    memory = ModularPPO(**TINY)
-    first = train(memory, BODIES[:2], [1, 2], [None, None])
-    second = train(memory, BODIES[2:], [3], [None])
+    memory, elsewhere = ModularPPO(**TINY), [tmp_path / "memory" / as_body(b).hash for b in BODIES]
+    first = train(memory, BODIES[:2], [1, 2], elsewhere[:2])
+    second = train(memory, BODIES[2:], [3], elsewhere[2:])
     assert [r.info["modular_generation"] for r in (*first, *second)] == [1, 1, 2]
     assert first[0].info["modular_bodies"] == 2 and first[0].info["env_steps"] == 64
     assert first[0].reward != first[1].reward  # one network, two bodies, two gaits
@@ -67,6 +67,9 @@ def test_the_policy_is_carried_on_the_same_in_memory_and_from_disk_and_a_saved_b
     replayed = train(ModularPPO(**TINY), BODIES, [1, 2, 3], dirs)
     assert [r.reward for r in replayed] == [r.reward for r in (*first, *second)]
     assert [r.info for r in replayed] == [r.info for r in (*on_disk, *resumed)]
+    # without work directories (a re-evaluation) a body learns from a fresh policy, nothing is carried
+    [fresh] = train(memory, BODIES[2:], [3], [None])
+    assert fresh.info["modular_generation"] == 1 and fresh.reward != second[0].reward
 
 
 def test_parameters_are_checked_before_a_run_in_one_line_and_info_lists_them(tmp_path):
@@ -111,6 +114,8 @@ ARGS = [
     "3",
     "--jobs",
     "1",
+    "--reevaluate",
+    "off",
     "-q",
     "--no-report",
 ]
@@ -123,6 +128,7 @@ def test_a_co_design_run_is_reproducible_and_resumes_after_a_kill_with_the_same_
     experiment = tmp_path / "modular.toml"
     experiment.write_text(
         f'designers = ["ga"]\nenv = "walker"\ncontroller = "{CONTROLLER}"\npopulation = 3\nbudget = 4\nseeds = "0"\n'
+        "reevaluate = false\n"
     )
     whole = tmp_path / "whole"
     done = CliRunner().invoke(

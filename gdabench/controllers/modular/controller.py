@@ -78,7 +78,7 @@ class ModularPPO(Controller):
 
     def __init__(self, **params: Any):
         self.config = modular_config(**params)
-        #: the policy each chain (trial folder, or None without work directories) carries: (generations, state)
+        #: the policy each chain (by its folder) carries, as on disk, so that it is not read back: (generations, state)
         self._carried: dict[str | None, tuple[int, dict[str, torch.Tensor]]] = {}
 
     @property
@@ -132,7 +132,7 @@ class ModularPPO(Controller):
 
     def _start(self, chain: Chain) -> tuple[int, dict[str, torch.Tensor] | None]:
         """Generations the chain has learnt and the policy the last one left (None before the first)."""
-        done = chain.generations() if chain.folder is not None else self._carried.get(None, (0, {}))[0]
+        done = chain.generations()
         if done == 0:
             return 0, None
         kept = self._carried.get(chain.key)
@@ -187,8 +187,9 @@ class ModularPPO(Controller):
             out.append(Evaluation(result.reward(b), info))
         final = {k: v.detach().clone() for k, v in result.final.state_dict().items()}
         names = [w.name for w in (workdirs[i] for i in todo) if w is not None]
-        chain.add(generation, final, names)
-        self._carried[chain.key] = (generation, final)
+        if chain.folder is not None:
+            chain.add(generation, final, names)
+            self._carried[chain.key] = (generation, final)
         return out
 
 
@@ -203,7 +204,8 @@ def generation_seed(seeds: Sequence[int], done: int) -> int:
 
 @dataclass(frozen=True)
 class Chain:
-    """The policies a trial carried from generation to generation, on disk (None: in memory only)."""
+    """The policies a trial carried from generation to generation, on disk (``folder`` None: bodies without work
+    directories, e.g. a re-evaluation, learn from a fresh policy and leave nothing to carry on)."""
 
     folder: Path | None
 
@@ -244,8 +246,7 @@ class Chain:
 
     def add(self, generation: int, state: dict[str, torch.Tensor], names: list[str]) -> None:
         """Record generation ``generation`` (the next one) as learnt: its final policy, then the record."""
-        if self.folder is None:
-            return
+        assert self.folder is not None
         self.folder.mkdir(parents=True, exist_ok=True)
         record = self._record()[: generation - 1]
         _atomic_torch(self.folder / f"generation-{generation:04d}.pt", state)
