@@ -58,6 +58,11 @@ class Controller(abc.ABC):
     #: a child's evaluation starts from what its parents' left in their work directories (``Bodies.parents``),
     #: as ``ppo[init=parent]`` does; the harness then hands the parents on and keeps no cross-run cache
     inherits: bool = False
+    #: a body's reward depends on the other new bodies of its generation and on the trial's earlier generations
+    #: (one policy learnt by a whole generation and carried on, ``modular-ppo``): the harness hands a generation
+    #: in one call, refuses execution options that would split it, and lets neither ``--cache`` nor another
+    #: trial's outcome stand in for an evaluation
+    learns_across_bodies: bool = False
 
     @abc.abstractmethod
     def evaluate(self, make_env: Callable[[], Any], *, seed: int, workdir: Path | None = None) -> Evaluation:

@@ -1,5 +1,5 @@
-"""The shared policy's pooled PPO (work towards ``modular-ppo``, not registered yet): one network drives bodies
-of different layouts, and a training is repeatable."""
+"""The shared policy's pooled PPO (``modular-ppo``'s training): one network drives bodies of different layouts,
+and a training is repeatable."""
 
 from __future__ import annotations
 

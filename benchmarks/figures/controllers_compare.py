@@ -8,9 +8,8 @@ For each task of ``--tasks`` and each per-body budget T of ``--budgets`` (timest
 2. generation 1 is trained four ways, each child with the same env steps T:
    ``scratch``: per-body ``ppo`` (Evolution Gym's, the thesis's);
    ``parent``: ``ppo[init=parent]``, each child from its nearest parent's policy;
-   ``modular``: one shared policy on ModularEvoGym's per-voxel observations, trained on generation 0's
-   pooled experience and carried on to generation 1's (``gdabench.controllers.modular``; not a registered
-   controller yet);
+   ``modular``: ``modular-ppo``, one shared policy on ModularEvoGym's per-voxel observations, learnt by
+   generation 0's bodies together and carried on to generation 1's;
    and ``scratch`` at 4T, the reference ranking;
 3. prints per task and budget: each way's median child reward and the median paired difference against
    ``scratch``; each way's Spearman rank correlation with ``scratch`` at 4T, and how many of the 4T top 5
@@ -54,65 +53,49 @@ def top_overlap(a: list[float], b: list[float], k: int = TOP) -> int:
     return len(best(a) & best(b))
 
 
-def ppo_rewards(env: Any, bodies: list, seeds: list[int], workdirs: list[Path], parents: list | None = None,
-                **params: Any) -> tuple[list[float], float]:
-    """Rewards of ``bodies`` under ``ppo[**params]`` (saved policies replayed) and the env steps per second."""
-    from gdabench.controllers.ppo import PPO
-
+def evaluate_rewards(
+    controller: Any, env: Any, bodies: list, seeds: list[int], workdirs: list[Path], parents: list | None = None
+) -> tuple[list[float], float]:
+    """Rewards of ``bodies`` under ``controller`` (saved policies replayed) and the env steps per second."""
     batch = env.bodies(bodies)
     if parents is not None:
         batch = dataclasses.replace(batch, parents=parents)
     start = time.perf_counter()
-    results = PPO(**params).evaluate_bodies(batch, seeds=seeds, workdirs=workdirs)
+    results = controller.evaluate_bodies(batch, seeds=seeds, workdirs=workdirs)
     seconds = time.perf_counter() - start
     for r in results:
         if isinstance(r, BaseException):
             raise r
-    steps = sum(r.info.get("env_steps", 0) for r in results)  # type: ignore[union-attr]
-    speed_file = workdirs[0].parent / "speed.json"  # a rerun replays the policies: keep the first run's speed
-    if steps:
+    steps = sum(r.info.get("env_steps", 0) for r in results)
+    # a rerun replays the policies (modular-ppo's with their training's columns): keep this call's first speed
+    speed_file = workdirs[0].parent / f"speed-{bodies[0].hash}.json"
+    if steps and not speed_file.exists():
         speed_file.write_text(json.dumps({"steps_per_second": steps / seconds}))
     speed = json.loads(speed_file.read_text())["steps_per_second"] if speed_file.exists() else float("nan")
-    return [r.reward for r in results], speed  # type: ignore[union-attr]
+    return [r.reward for r in results], speed
 
 
-def modular_rewards(env: Any, generations: list[list], seeds: list[list[int]], timesteps: int,
-                    folder: Path) -> tuple[list[float], float]:
-    """The last generation's rewards under one shared policy trained on each generation in turn (carried)."""
-    import torch
+def ppo_rewards(
+    env: Any, bodies: list, seeds: list[int], workdirs: list[Path], parents: list | None = None, **params: Any
+) -> tuple[list[float], float]:
+    """Rewards of ``bodies`` under ``ppo[**params]`` and its env steps per second."""
+    from gdabench.controllers.ppo import PPO
 
-    from gdabench.controllers.modular.observation import modular_view
-    from gdabench.controllers.modular.policy import fresh_policy
-    from gdabench.controllers.modular.train import train_pooled
-    from gdabench.controllers.ppo import PPOConfig
+    return evaluate_rewards(PPO(**params), env, bodies, seeds, workdirs, parents)
 
-    saved = folder / "rewards.json"
-    if saved.exists():
-        data = json.loads(saved.read_text())
-        return data["rewards"], data["steps_per_second"]
-    config = PPOConfig(timesteps=timesteps)
-    policy, steps, seconds, result = None, 0, 0.0, None
+
+def modular_rewards(
+    env: Any, generations: list[list], seeds: list[list[int]], timesteps: int, folder: Path
+) -> tuple[list[float], float]:
+    """The last generation's rewards under ``modular-ppo``: one shared policy learnt by each generation in turn
+    (carried on in ``folder``, as in a trial's folder), and the last generation's env steps per second."""
+    from gdabench.controllers.modular.controller import ModularPPO
+
+    controller = ModularPPO(timesteps=timesteps)
+    out: tuple[list[float], float] = ([], float("nan"))
     for bodies, body_seeds in zip(generations, seeds):
-        batch = env.bodies(bodies)
-        views = []
-        for make_env in batch.make_envs:
-            gym_env = make_env()
-            views.append(modular_view(gym_env))
-            gym_env.close()
-        if policy is None:
-            policy = fresh_policy(len(views[0].other), config.hidden, body_seeds[0])
-        start = time.perf_counter()
-        count = len(bodies)
-        result = train_pooled(config, policy, lambda n, b=batch, k=count: b.make_batch(range(k), n), views,
-                              body_seeds, body_seeds[0])
-        seconds += time.perf_counter() - start
-        steps += result.timesteps * len(bodies)
-    assert result is not None
-    rewards = [result.reward(b) for b in range(len(generations[-1]))]
-    folder.mkdir(parents=True, exist_ok=True)
-    torch.save(result.final.state_dict(), folder / "shared_policy.pt")
-    saved.write_text(json.dumps({"rewards": rewards, "steps_per_second": steps / seconds}))
-    return rewards, steps / seconds
+        out = evaluate_rewards(controller, env, bodies, body_seeds, [folder / b.hash for b in bodies])
+    return out
 
 
 def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any]:
@@ -121,8 +104,9 @@ def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any]:
 
     env = VoxelTask(task=task)
     out = args.out / task / str(budget)
-    designer = make_designer(args.designer, seed=args.seed, shape=(5, 5), population=args.population,
-                             budget=2 * args.population)
+    designer = make_designer(
+        args.designer, seed=args.seed, shape=(5, 5), population=args.population, budget=2 * args.population
+    )
     first = designer.ask()
     first_seeds = [seeding.evaluation_seed(args.seed, b.hash) for b in first]
     first_dirs = [out / "parent" / b.hash for b in first]
@@ -130,20 +114,26 @@ def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any]:
     designer.tell(first, first_rewards)
     children = designer.ask()
     told = {b.hash for b in first}
-    parents = [tuple(out / "parent" / p.hash for p in ps if p.hash in told)
-               for ps in (designer.proposal_parents() or [()] * len(children))]
+    parents = [
+        tuple(out / "parent" / p.hash for p in ps if p.hash in told)
+        for ps in (designer.proposal_parents() or [()] * len(children))
+    ]
     seeds = [seeding.evaluation_seed(args.seed, b.hash) for b in children]
     row: dict[str, Any] = {"task": task, "budget": budget, "designer": args.designer, "children": len(children)}
     rewards: dict[str, list[float]] = {}
     speed: dict[str, float] = {}
     rewards["scratch"], speed["scratch"] = ppo_rewards(
-        env, children, seeds, [out / "scratch" / b.hash for b in children], timesteps=budget)
+        env, children, seeds, [out / "scratch" / b.hash for b in children], timesteps=budget
+    )
     rewards["parent"], speed["parent"] = ppo_rewards(
-        env, children, seeds, [out / "parent" / b.hash for b in children], parents, timesteps=budget, init="parent")
-    rewards["modular"], speed["modular"] = modular_rewards(env, [first, children], [first_seeds, seeds], budget,
-                                                           out / "modular")
-    reference, _ = ppo_rewards(env, children, seeds, [out / "scratch4x" / b.hash for b in children],
-                               timesteps=4 * budget)
+        env, children, seeds, [out / "parent" / b.hash for b in children], parents, timesteps=budget, init="parent"
+    )
+    rewards["modular"], speed["modular"] = modular_rewards(
+        env, [first, children], [first_seeds, seeds], budget, out / "modular"
+    )
+    reference, _ = ppo_rewards(
+        env, children, seeds, [out / "scratch4x" / b.hash for b in children], timesteps=4 * budget
+    )
     row["with_parent"] = sum(1 for p in parents if p)
     for way in WAYS:
         r = rewards[way]
@@ -160,9 +150,11 @@ def show(rows: list[dict[str, Any]]) -> None:
     print(f"{'task':<18}{'T':>8}  {'way':<8}{'median':>8}{'- scratch':>10}{'rho 4x':>8}{f'top{TOP}':>6}{'steps/s':>9}")
     for row in rows:
         for way in WAYS:
-            print(f"{row['task']:<18}{row['budget']:>8}  {way:<8}{row[f'{way}_median']:>8.3f}"
-                  f"{row[f'{way}_minus_scratch']:>10.3f}{row[f'{way}_spearman_4x']:>8.2f}"
-                  f"{row[f'{way}_top{TOP}_of_4x']:>6}{row[f'{way}_steps_per_s']:>9.0f}")
+            print(
+                f"{row['task']:<18}{row['budget']:>8}  {way:<8}{row[f'{way}_median']:>8.3f}"
+                f"{row[f'{way}_minus_scratch']:>10.3f}{row[f'{way}_spearman_4x']:>8.2f}"
+                f"{row[f'{way}_top{TOP}_of_4x']:>6}{row[f'{way}_steps_per_s']:>9.0f}"
+            )
 
 
 def main() -> None:

@@ -17,7 +17,14 @@ def gdabench_controllers() -> list[ControllerSpec]:
             name="ppo",
             factory="gdabench.controllers.ppo.controller:PPO",
             settings="gdabench.controllers.ppo.config:PPOConfig",  # checked before torch is imported
-            description="PPO on TorchRL with Evolution Gym 2.0's settings; reward = best evaluation (timesteps=1e6 is "
-                        "faithful)",
+            description="PPO with Evolution Gym 2.0's settings, one policy per body; reward = best evaluation "
+            "(timesteps=1e6 is faithful)",
+        ),
+        ControllerSpec(
+            name="modular-ppo",
+            factory="gdabench.controllers.modular.controller:ModularPPO",
+            settings="gdabench.controllers.modular.config:modular_config",  # checked before torch is imported
+            description="One per-voxel policy (ModularEvoGym's observations) learnt by a whole generation with PPO "
+            "and carried to the next; reward = best evaluation",
         ),
     ]

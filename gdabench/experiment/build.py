@@ -72,6 +72,22 @@ class RunSetup:
     #: the seeds a resume adds to the run's own
     added_seeds: tuple[int, ...] = ()
 
+    def __post_init__(self) -> None:
+        """A controller whose bodies learn together (``modular-ppo``) needs each generation in one call."""
+        choice = self.experiment.controller
+        if self.plan is None or self.plan.controller is None or choice is None:
+            return
+        from ..execution.evaluation import instance
+
+        if not getattr(instance(self.plan.controller), "learns_across_bodies", False):
+            return
+        batch, population = self.execution.batch, self.experiment.population
+        if self.execution.workers > 1 or (batch is not None and batch < population):
+            raise ConfigError(
+                f"controller {choice.label!r} learns a generation's bodies together: use "
+                f"--workers 1 and no --batch below the population ({population})"
+            )
+
 
 def build_run(given: Mapping[str, Any], *, reg: Registry | None = None) -> RunSetup:
     """The run ``given`` asks for: option name -> value, only the options the user gave.

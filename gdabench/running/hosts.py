@@ -82,18 +82,22 @@ class TrialHost:
             self._executor = make_executor(self.execution, warm)
         controller = instance(spec.controller) if spec.controller else None
         batch = self.execution.batch or (controller or env).bodies_at_once
+        # an inheriting controller's reward depends on the trial's history, which the cache does not key; one whose
+        # bodies learn together also on the generation, and it replays a resumed generation itself
+        together = bool(getattr(controller, "learns_across_bodies", False))
         self._evaluate = EvaluationPipeline(
             self._executor,
             batch,
             at_once=self.execution.workers * batch,
             report=self._report,
-            # an inheriting controller's reward depends on the trial's history, which the cache does not key
             cache=EvaluationCache(self.execution.cache, spec.cache_context)
-            if self.execution.cache is not None and spec.cache_context is not None and not self.trial.inherits
+            if self.execution.cache is not None
+            and spec.cache_context is not None
+            and not (self.trial.inherits or together)
             else None,
             # deterministic environments only; a Ray cluster's nodes may not see the run directory
             replay=RunOutcomes(self.run_path)
-            if spec.cache_context is not None and self.execution.executor == "local"
+            if spec.cache_context is not None and self.execution.executor == "local" and not together
             else None,
             strategy=controller.evaluation_strategy() if controller else None,
         )

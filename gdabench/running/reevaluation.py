@@ -110,6 +110,8 @@ def reevaluate_run(
     call as large as ``--batch`` or the controller's lockstep batch."""
     env, controller = plan.scorers()
     batch = execution.batch or (controller or env).bodies_at_once
+    if getattr(controller, "learns_across_bodies", False):
+        batch = 1  # each re-evaluation learns alone, from scratch: the same for any --jobs and trial order
     workers = (execution.jobs or max(1, cpu_count() // execution.workers)) * execution.workers
     pool = Execution(executor=execution.executor, workers=workers, timeout=execution.timeout,
                      ray_address=execution.ray_address)  # fmt: skip

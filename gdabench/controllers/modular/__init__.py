@@ -1,6 +1,7 @@
-"""One policy for many bodies: the parts of the ``modular-ppo`` controller of issue 56 (not registered yet).
+"""``modular-ppo``: one policy for many bodies (issue 56).
 
 Modules: ``observation`` (ModularEvoGym's per-voxel observations from the voxel engine's flat ones), ``policy``
-(a shared MLP over voxel tokens), ``train`` (PPO on a generation's pooled experience).  What is missing before
-it is a controller: docs/controllers/modular.md.
+(a shared MLP over voxel tokens), ``train`` (PPO on a generation's pooled experience), ``config`` (its settings,
+checked without torch), ``controller`` (the controller: a generation learns together, the policy is carried on
+to the next generation and kept in the trial's folder).
 """

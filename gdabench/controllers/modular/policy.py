@@ -89,11 +89,14 @@ class SharedBatch:
         corners = torch.gather(padded, 2, self.index.view(B, 1, -1).expand(B, n, -1)).view(B, n, self.voxels, 8)
         corners = corners * self.filled.view(B, 1, -1, 1)
         other = torch.gather(obs, 2, self.other.view(B, 1, -1).expand(B, n, -1))
-        return torch.cat([
-            corners,
-            self.materials.unsqueeze(1).expand(B, n, -1, -1),
-            other.unsqueeze(2).expand(B, n, self.voxels, -1),
-        ], dim=3)
+        return torch.cat(
+            [
+                corners,
+                self.materials.unsqueeze(1).expand(B, n, -1, -1),
+                other.unsqueeze(2).expand(B, n, self.voxels, -1),
+            ],
+            dim=3,
+        )
 
     def mean(self, obs: torch.Tensor) -> torch.Tensor:
         """The Gaussian's mean ``(B, n, A)``: each actuator's voxel's output (zero on padded actions)."""
@@ -127,4 +130,3 @@ class SharedBatch:
         actions = mean + self.log_std.exp().unsqueeze(1) * noise
         log_prob = -((0.5 * noise.square() + self.log_std.unsqueeze(1) + HALF_LOG_2PI) * self.act_mask.unsqueeze(1))
         return actions, log_prob.sum(-1)
-

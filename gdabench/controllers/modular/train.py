@@ -84,14 +84,17 @@ def _collect(
     config: PPOConfig, nets: SharedBatch, batch: BodyBatch, obs: np.ndarray, sampling: list[torch.Generator]
 ) -> tuple[dict[str, torch.Tensor], np.ndarray]:
     B, E = nets.n_bodies, config.n_envs
-    out: dict[str, list[torch.Tensor]] = {k: [] for k in ("obs", "action", "log_prob", "reward", "next_obs", "done",
-                                                           "terminated")}
+    out: dict[str, list[torch.Tensor]] = {
+        k: [] for k in ("obs", "action", "log_prob", "reward", "next_obs", "done", "terminated")
+    }
     for _ in range(config.n_steps):
         x = as_input(obs, nets, E)  # type: ignore[arg-type]
         action, log_prob = nets.act(x, sampling)
         step = batch.step(action.reshape(len(obs), -1).numpy().astype(np.float64))
         for key, value in (
-            ("obs", x), ("action", action), ("log_prob", log_prob),
+            ("obs", x),
+            ("action", action),
+            ("log_prob", log_prob),
             ("reward", torch.from_numpy(step.reward.astype(np.float32)).view(B, E)),
             ("next_obs", as_input(step.next_obs, nets, E)),  # type: ignore[arg-type]
             ("done", torch.from_numpy(step.done).view(B, E)),
@@ -103,7 +106,10 @@ def _collect(
 
 
 def _learn(
-    config: PPOConfig, nets: SharedBatch, optimizer: torch.optim.Optimizer, rollout: dict[str, torch.Tensor],
+    config: PPOConfig,
+    nets: SharedBatch,
+    optimizer: torch.optim.Optimizer,
+    rollout: dict[str, torch.Tensor],
     order: torch.Generator,
 ) -> None:
     B = nets.n_bodies
@@ -120,8 +126,12 @@ def _learn(
             return t.reshape(B * E, T, 1)
 
         advantage, _ = generalized_advantage_estimate(
-            config.gamma, config.gae_lambda, trajectories(value), trajectories(next_value),
-            trajectories(per_body(rollout["reward"])), trajectories(per_body(rollout["done"])),
+            config.gamma,
+            config.gae_lambda,
+            trajectories(value),
+            trajectories(next_value),
+            trajectories(per_body(rollout["reward"])),
+            trajectories(per_body(rollout["done"])),
             trajectories(per_body(rollout["terminated"])),
         )
         advantage = advantage.reshape(B, E * T)
@@ -147,14 +157,21 @@ def _learn(
 
 
 def _evaluate(
-    config: PPOConfig, nets: SharedBatch, make_batch: Callable[[int], BodyBatch], seeds: Sequence[int], steps: int,
+    config: PPOConfig,
+    nets: SharedBatch,
+    make_batch: Callable[[int], BodyBatch],
+    seeds: Sequence[int],
+    steps: int,
     result: PooledResult,
 ) -> None:
     index = len(result.states)
     generators = [evaluation_generator(config, s, index) for s in seeds]
     with torch.no_grad():
         scores = evaluate_policies(
-            nets, make_batch, n_evals=config.n_evals, episode_end=config.episode_end,  # type: ignore[arg-type]
+            nets,  # type: ignore[arg-type]
+            make_batch,
+            n_evals=config.n_evals,
+            episode_end=config.episode_end,
             generators=generators,
         )
     result.states.append(copy.deepcopy(nets.policy.state_dict()))

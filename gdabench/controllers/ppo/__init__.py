@@ -1,4 +1,4 @@
-"""``ppo``: Evolution Gym 2.0's inner loop, PPO learning each body's gait, built on TorchRL.
+"""``ppo``: Evolution Gym 2.0's inner loop, PPO learning each body's gait (TorchRL's GAE, the loss written out).
 
 Modules: ``config`` (settings and their checks), ``networks`` (SB3's default actor-critic, one
 per body, stacked for a batch), ``update`` (one PPO minibatch step for every body of a batch),

@@ -35,7 +35,8 @@ RUNTIME_SETTINGS = ("device", "threads")
 
 
 class PPO(Controller):
-    """Evolution Gym 2.0's PPO on TorchRL (parameters: every PPOConfig field).
+    """Evolution Gym 2.0's PPO, one policy per body: stable-baselines3's loss written out, TorchRL's GAE
+    (parameters: every PPOConfig field).
 
     Parameters:
         timesteps: environment steps of training per body (Evolution Gym 2.0: 1e6; default 50,000)
