@@ -83,6 +83,14 @@ class Controller(abc.ABC):
             for make_env, seed, workdir in zip(bodies.make_envs, seeds, workdirs)
         ]
 
+    def evaluate_alone(self, make_env: Callable[[], Any], *, seed: int, workdir: Path | None = None) -> Evaluation:
+        """:meth:`evaluate` as a batch of one, for a controller whose :meth:`evaluate_bodies` is the real one
+        (it learns bodies together): ``evaluate = Controller.evaluate_alone`` in its class."""
+        [result] = self.evaluate_bodies(Bodies([make_env]), seeds=[seed], workdirs=[workdir])
+        if isinstance(result, BaseException):
+            raise result
+        return result
+
     def evaluation_strategy(self) -> EvaluationStrategy | None:
         """How a whole generation is evaluated (see :mod:`gdabench.strategy`); None:
         every body once, fully (the default)."""

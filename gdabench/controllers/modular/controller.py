@@ -86,11 +86,7 @@ class ModularPPO(Controller):
         """What determines a training (runtime settings aside)."""
         return {k: v for k, v in self.config.as_dict().items() if k not in (*NOT_SHARED, "threads")}
 
-    def evaluate(self, make_env: Callable[[], Any], *, seed: int, workdir: Path | None = None) -> Evaluation:
-        [result] = self.evaluate_bodies(Bodies([make_env]), seeds=[seed], workdirs=[workdir])
-        if isinstance(result, BaseException):
-            raise result
-        return result
+    evaluate = Controller.evaluate_alone
 
     def evaluate_bodies(
         self, bodies: Bodies, *, seeds: Sequence[int], workdirs: Sequence[Path | None]

@@ -89,11 +89,7 @@ class PPO(Controller):
             return {"settings": settings, "seed": int(seed)}
         return {"settings": settings, "seed": int(seed), "parent": parent}
 
-    def evaluate(self, make_env: Callable[[], Any], *, seed: int, workdir: Path | None = None) -> Evaluation:
-        [result] = self.evaluate_bodies(Bodies([make_env]), seeds=[seed], workdirs=[workdir])
-        if isinstance(result, BaseException):
-            raise result
-        return result
+    evaluate = Controller.evaluate_alone
 
     def evaluate_bodies(
         self, bodies: Bodies, *, seeds: Sequence[int], workdirs: Sequence[Path | None]
