@@ -33,7 +33,6 @@ import platform
 import shutil
 import socket
 import sys
-import tempfile
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
@@ -43,6 +42,7 @@ import pandas as pd
 from filelock import FileLock, Timeout
 
 from . import faults
+from .atomic import atomic_write_bytes
 from .errors import ConfigError, GdabenchError, RunDirectoryError, RunFailure, RunLockedError
 from .parquet import read_parquet
 from .statuses import STATUSES
@@ -109,31 +109,6 @@ TRIAL_KEY = ["env", "designer", "seed"]
 
 def utc_now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
-
-
-def _fsync_dir(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a unique temporary file, flushed to disk before the rename."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, 0o644)  # mkstemp creates private files; results are meant to be shared
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    _fsync_dir(path.parent)
 
 
 def parquet_bytes(frame: pd.DataFrame) -> bytes:

@@ -18,7 +18,9 @@ releases; ``tests/test_imports.py`` holds the built-in plugins to the same rule.
   environments or by :class:`ArrayBodies` from an array simulator; :func:`gdabench.testing.check_body_batch`
   checks an environment's batches;
 * parameters: :func:`config_signature` gives a plugin class the signature of its config dataclass, so its
-  parameters are checked like any factory's; :func:`read_parquet` reads a results table (e.g. a prior).
+  parameters are checked like any factory's; :func:`read_parquet` reads a results table (e.g. a prior);
+* files: :func:`atomic_write_bytes` writes a file whole or not at all, as the run directory does (a plugin's
+  artifacts that a resumed run reads back).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ import contextlib
 from typing import Callable, Iterator
 
 from . import spawning
+from .atomic import atomic_write_bytes
 from .batched import UNSTABLE_INFO_KEY, ArrayBodies, ArraySimulator, BodyBatch, GymBodies, Transition
 from .cpu import cpu_count
 from .params import config_signature
@@ -36,8 +39,8 @@ from .strategy import EvalOutcome, EvalTask, Evaluate, EvaluationStrategy
 
 __all__ = [
     "UNSTABLE_INFO_KEY", "ArrayBodies", "ArraySimulator", "BodyBatch", "EvalOutcome", "EvalTask", "Evaluate",
-    "EvaluationStrategy", "GymBodies", "Transition", "config_signature", "cpu_count", "hookimpl", "progress_to",
-    "read_parquet", "report_progress", "spawning",
+    "EvaluationStrategy", "GymBodies", "Transition", "atomic_write_bytes", "config_signature", "cpu_count",
+    "hookimpl", "progress_to", "read_parquet", "report_progress", "spawning",
 ]  # fmt: skip
 
 _progress: list[Callable[[str], None]] = []

@@ -132,7 +132,7 @@ def test_no_new_import_circles():
 #: own namespace, ``gdabench/__init__.py``)
 FLOORS: tuple[tuple[str, frozenset[str]], ...] = (
     ("leaf", frozenset({"errors", "body", "seeding", "statuses", "names", "cpu", "specs", "torch_runtime", "faults",
-                        "params", "spawning", "parquet"})),  # fmt: skip
+                        "params", "spawning", "parquet", "atomic"})),  # fmt: skip
     ("contract", frozenset({"designer", "environment", "strategy", "batched", "sdk"})),
     ("plugins", frozenset({"designers", "envs", "controllers"})),
     ("machinery", frozenset({"execution", "results", "stats"})),

@@ -31,8 +31,7 @@ import torch
 
 from ... import faults
 from ...environment import Bodies, Controller, Evaluation
-from ...results import atomic_write_bytes
-from ...sdk import BodyBatch, GymBodies
+from ...sdk import BodyBatch, GymBodies, atomic_write_bytes
 from ..ppo.evaluation import evaluate_policies
 from ..ppo.train import deterministic_torch, evaluation_generator
 from .config import NOT_SHARED, SIGNATURE, modular_config
