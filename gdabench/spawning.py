@@ -112,6 +112,9 @@ def one_core() -> None:
     """
     import numba
 
+    from .cpu import start_numba_threads
+
+    start_numba_threads()
     numba.set_num_threads(1)
 
 

@@ -17,7 +17,7 @@ import sys
 import time
 from typing import Any
 
-from ..cpu import cpu_count
+from ..cpu import cpu_count, start_numba_threads
 from ..envs.voxel import PARALLEL_FROM
 
 _pool: Any = None  # shared count of spare cores (multiprocessing.Value), set in a run's trial processes
@@ -127,4 +127,5 @@ def use_engine_threads(threads: int) -> None:
     """Set the voxel engine's threads in this process (only where the engine, and so Numba, is loaded)."""
     numba = sys.modules.get("numba")
     if numba is not None:
+        start_numba_threads()
         numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))

@@ -28,8 +28,11 @@ import numba
 import numpy as np
 
 from ...body import Body, as_body
+from ...cpu import start_numba_threads
 from . import PARALLEL_FROM, kernels
 from .model import CELL, FIXED, H_ACT, RIGID, V_ACT, Object, build_object
+
+start_numba_threads()  # now, not at the first step: inside a training it would change torch's threads
 
 #: where Walker-v0 places the robot (voxels): x 1, bottom at y 1
 ROBOT_AT = (1, 1)
