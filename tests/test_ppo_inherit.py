@@ -219,6 +219,8 @@ ARGS = [
     "3",
     "--jobs",
     "1",
+    "--reevaluate",
+    "off",
     "-q",
     "--no-report",
 ]
@@ -231,6 +233,7 @@ def test_inheriting_runs_are_reproducible_and_resume_after_a_kill_with_the_same_
     experiment = tmp_path / "inherit.toml"
     experiment.write_text(
         f'designers = ["ga"]\nenv = "walker"\ncontroller = "{CONTROLLER}"\npopulation = 3\nbudget = 6\nseeds = "0"\n'
+        "reevaluate = false\n"
     )
     whole = tmp_path / "whole"
     done = cli(
