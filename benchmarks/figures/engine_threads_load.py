@@ -5,9 +5,11 @@ them (``GDABENCH_ENGINE_THREADS=auto``) and with Numba's default (a thread per C
     python benchmarks/figures/engine_threads_load.py --engine-only --repeats 5    # the engine's step alone, seconds
 
 Each arm runs the same command (25 random bodies learning 2,048 timesteps in lockstep on the walker,
-in the command's own process) and the arms alternate, so that the machine's other load falls on all of
-them alike.  ``busy`` starts one process spinning on a core for the run's length.  Prints each run's
-wall time, the medians and the ratio busy/quiet; the goal is at most 1.3.
+in the command's own process, without re-evaluation: the run of issue 57) and the arms alternate, so
+that the machine's other load falls on all of them alike.  ``busy`` starts one process spinning on a
+core for the run's length; ``1 thread, quiet`` is the run held to one engine thread on the quiet machine,
+the core it can keep beside a busy process.  Prints each run's wall time, the medians and the ratios
+busy/quiet, against either quiet arm; the goal is at most 1.3.
 """
 
 from __future__ import annotations
@@ -22,7 +24,8 @@ import time
 from pathlib import Path
 
 COMMAND = ["-m", "gdabench", "compare", "-d", "random", "--env", "walker", "-c", "ppo[timesteps=2048]",
-           "--population", "25", "--budget", "25", "--seeds", "0", "--jobs", "1", "-q", "--no-report"]  # fmt: skip
+           "--population", "25", "--budget", "25", "--seeds", "0", "--jobs", "1", "--reevaluate", "off", "-q",
+           "--no-report"]  # fmt: skip
 SPIN = "import time\nwhile True:\n    pass\n"
 
 
@@ -81,12 +84,19 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--engine-only", action="store_true", help="time the engine's batch step alone")
+    parser.add_argument("--arms", default="", help="only these arms, separated by ';' ('auto, quiet;1 thread, quiet')")
     args = parser.parse_args()
     if args.engine_only:
         engine_only(args.repeats)
         return
     cpus = os.cpu_count() or 1
-    arms = {"auto, quiet": ("auto", False), "auto, busy": ("auto", True), f"{cpus} threads, busy": (str(cpus), True)}
+    # "1 thread, quiet": the run on one core of a quiet machine, what it can keep beside a process on the other
+    arms = {"auto, quiet": ("auto", False), "auto, busy": ("auto", True), f"{cpus} threads, busy": (str(cpus), True),
+            "1 thread, quiet": ("1", False)}  # fmt: skip
+    chosen = [a.strip() for a in args.arms.split(";") if a.strip()] if args.arms else list(arms)
+    if set(chosen) - set(arms):
+        sys.exit(f"error: unknown arms {sorted(set(chosen) - set(arms))}; choose from {sorted(arms)}")
+    arms = {arm: arms[arm] for arm in chosen}
     times: dict[str, list[float]] = {arm: [] for arm in arms}
     with tempfile.TemporaryDirectory() as tmp:
         for repeat in range(args.repeats):
@@ -97,9 +107,10 @@ def main() -> None:
     medians = {arm: statistics.median(t) for arm, t in times.items()}
     for arm, median in medians.items():
         print(f"{arm:>18}: median {median:6.1f} s  ({', '.join(f'{t:.1f}' for t in times[arm])})")
-    quiet = medians["auto, quiet"]
-    print(f"busy / quiet, auto: x{medians['auto, busy'] / quiet:.2f}  (goal: at most x1.3)")
-    print(f"busy / quiet, {cpus} threads when busy: x{medians[f'{cpus} threads, busy'] / quiet:.2f}")
+    for busy in ("auto, busy", f"{cpus} threads, busy"):
+        for quiet in ("auto, quiet", "1 thread, quiet"):
+            if busy in medians and quiet in medians:
+                print(f"{busy} / {quiet}: x{medians[busy] / medians[quiet]:.2f}  (goal: at most x1.3)")
 
 
 if __name__ == "__main__":
