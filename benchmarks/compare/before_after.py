@@ -130,8 +130,8 @@ def main() -> None:
         print(f"\n{'job':9} {'figure':16} {'before':>10} {'after':>10} {'after/before':>13}")
         for job in jobs:
             figures = ["env_steps_per_s", "wall_s", "cpu_s"] if job == "engine" else ["wall_s", "cpu_s"]
-            entry: dict[str, Any] = {"rounds": {s: [{k: v for k, v in x.items() if k != "table"} for x in results[job][s]]
-                                                for s in sides}}  # fmt: skip
+            rounds = {s: [{k: v for k, v in x.items() if k != "table"} for x in results[job][s]] for s in sides}
+            entry: dict[str, Any] = {"rounds": rounds}
             for figure in figures:
                 b, a = (statistics.median(x[figure] for x in results[job][s]) for s in ("before", "after"))
                 entry[f"median_{figure}"] = {"before": b, "after": a, "ratio": round(a / b, 3)}
