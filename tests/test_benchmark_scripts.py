@@ -52,6 +52,10 @@ SMOKE: dict[str, tuple[str, str]] = {
         "| 5x5 | 4 |",
     ),
     "compare/walker_stability.py": ("--bodies 3 --steps 50 --engine voxel", "undetected problems: 0"),
+    "compare/before_after.py": (  # this tree on both sides, the engine job alone (the main job is gda's minutes)
+        "--before {root} --jobs engine --rounds 1 --engine-steps 5",
+        "after/before",
+    ),
 }
 
 #: figure reproducers that another test runs at tiny sizes
@@ -74,7 +78,6 @@ HELP_ONLY = {
     "figures/gda_step.py": "torch.compile of the default variant (about 30 s of CPU even at one epoch)",
     "figures/main_job.py": "the main job itself, with gda",
     "figures/ppo_schedules.py": "PPO training of one rollout under two schedules: about 35 s of CPU at the least",
-    "compare/before_after.py": "needs an older commit's worktree (--before), and its main job is gda's",
     "compare/codesign_speed.py": "its arms need an older commit's worktree or Evolution Gym and stable-baselines3",
     "compare/evogym_record.py": "needs Evolution Gym (records its trajectories)",
     "compare/ppo_batch_of_one.py": "needs an older commit's worktree (--before)",
