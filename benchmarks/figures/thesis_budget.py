@@ -21,7 +21,8 @@ and a body that has not crossed after 500 steps ends further away (see ``crossin
 Rows are appended to ``--out`` (CSV) as each batch of ``--chunk`` bodies finishes, so a killed run loses
 at most one batch and resumes where it stopped (a lockstep batch of 25 bodies costs 0.6 of the CPU time
 of five batches of 5, so batches are as large as the loss of one allows).  Jobs run in the order of
-``--order`` (budget:seed).
+``--order`` (budget:seed).  ``--part I/N`` trains every N-th body of the sample from the I-th only, so
+that N processes (each with its own ``--out``) share the sample; ``table --rows`` reads them together.
 One process, one torch thread; set NUMBA_NUM_THREADS=1 and run it under ``nice``::
 
     NUMBA_NUM_THREADS=1 nice -n 19 python benchmarks/figures/thesis_budget.py train --out /work/wt/thesis-budget.csv \\
@@ -112,10 +113,12 @@ def train(args: argparse.Namespace) -> None:
     sample = stratified_sample(author_bodies(), args.strata, args.crossers, args.sample_seed)
     out = Path(args.out)
     done = done_keys(out)
+    index, parts = (int(v) for v in args.part.split("/"))
+    mine = list(sample.itertuples())[index::parts]
     for job in args.order.split(","):
         budget, seed, *size = (int(float(v)) for v in job.split(":"))
         chunk_size = size[0] if size else args.chunk
-        todo = [r for r in sample.itertuples() if (budget, seed, r.body) not in done]
+        todo = [r for r in mine if (budget, seed, r.body) not in done]
         for start in range(0, len(todo), chunk_size):
             chunk = todo[start : start + chunk_size]
             outcomes, seconds, cpu = train_chunk([r.body for r in chunk], budget, seed)
@@ -199,12 +202,13 @@ def main() -> None:
     t.add_argument("--out", required=True)
     t.add_argument("--order", default="12500:0,50000:0,200000:0,1000000:0", help="budget:seed[:chunk] jobs, in order")
     t.add_argument("--chunk", type=int, default=25, help="bodies per lockstep batch (and per write), unless a job says")
+    t.add_argument("--part", default="0/1", help="I/N: train bodies I, I+N, I+2N, ... of the sample")
     for p in (t, sub.add_parser("sample", help="print the sample")):
         p.add_argument("--strata", type=int, default=20)
         p.add_argument("--crossers", type=int, default=5)
         p.add_argument("--sample-seed", type=int, default=2024)
     s = sub.add_parser("table", help="the agreement table from the rows")
-    s.add_argument("--rows", required=True)
+    s.add_argument("--rows", required=True, help="the rows' CSV (several, comma-separated, are read together)")
     s.add_argument("--markdown", help="also write the table as markdown here")
     args = parser.parse_args()
     if args.command == "train":
@@ -212,7 +216,8 @@ def main() -> None:
     elif args.command == "sample":
         print(stratified_sample(author_bodies(), args.strata, args.crossers, args.sample_seed).to_string())
     else:
-        frame = table(pd.read_csv(args.rows))
+        rows = pd.concat([pd.read_csv(path) for path in args.rows.split(",")], ignore_index=True)
+        frame = table(rows.drop_duplicates(["budget", "seed", "body"]))
         print(frame.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
         if args.markdown:
             Path(args.markdown).write_text(markdown(frame) + "\n")

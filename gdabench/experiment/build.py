@@ -19,6 +19,7 @@ from ..errors import ConfigError, RunDirectoryError
 from ..execution.options import Execution
 from ..plugins import Registry, registry
 from ..results import RunDirectory
+from ..stats.power import ALPHA, minimum_seeds, seeds_needed
 from .config import (
     DEFAULT_BUDGET,
     DEFAULT_ENV,
@@ -265,8 +266,6 @@ def _primary_seeds(primary: Primary | None) -> tuple[int, ...] | None:
     """Seeds 0..n-1, n from the power analysis for the primary comparison's smallest effect of interest."""
     if primary is None:
         return None
-    from ..stats.power import seeds_needed  # scipy: only for a primary comparison without seeds
-
     needed = seeds_needed(primary.effect, alpha=primary.alpha, target_power=primary.power)
     if needed is None:
         raise ConfigError(f"primary: no number of seeds up to 1000 detects A12 = {primary.effect} {primary.power:.0%} "
@@ -324,8 +323,6 @@ def significance_warnings(experiment: Experiment, alpha: float | None = None) ->
     """What an experiment's seeds cannot show, said before it runs: a primary comparison with fewer seeds than
     any significant result needs (or than its power analysis asks for), or, without one, pairs of designers
     that no outcome could make significant after Holm's correction (at ``alpha``, by default 0.05)."""
-    from ..stats.power import ALPHA, minimum_seeds, seeds_needed  # scipy: only once a run is asked for
-
     alpha = ALPHA if alpha is None else alpha
     n, designers = len(experiment.seeds), len(experiment.designers)
     out = []

@@ -23,9 +23,9 @@ from __future__ import annotations
 
 import math
 from functools import lru_cache
+from statistics import NormalDist
 
 import numpy as np
-from scipy.stats import norm
 
 ALPHA = 0.05
 POWER = 0.8
@@ -33,6 +33,9 @@ DRAWS = 2000
 POWER_SEED = 0
 MAX_SEEDS = 1000
 EXACT_UP_TO = 100
+#: the standard normal (the standard library's: a run's pre-flight warnings then need no scipy import,
+#: which was half of a small ``compare``'s time)
+NORMAL = NormalDist()
 #: A12 at the Vargha-Delaney thresholds of a small, medium and large effect, and a very large one
 REFERENCE_EFFECTS = ((0.56, "small"), (0.64, "medium"), (0.71, "large"), (0.9, "very large"))
 
@@ -58,7 +61,7 @@ def critical_value(n: int, alpha: float) -> int:
     """
     if n > EXACT_UP_TO:
         mean, sd = n * (n + 1) / 4.0, math.sqrt(n * (n + 1) * (2 * n + 1) / 24.0)
-        return math.floor(mean + norm.ppf(alpha / 2.0) * sd - 0.5)
+        return math.floor(mean + NORMAL.inv_cdf(alpha / 2.0) * sd - 0.5)
     cdf = _null_cdf(n)
     below = np.nonzero(cdf <= alpha / 2.0 + 1e-12)[0]
     return int(below[-1]) if len(below) else -1
@@ -74,7 +77,7 @@ def power(n: int, a12: float, *, alpha: float = ALPHA, draws: int = DRAWS, seed:
     c = critical_value(n, alpha)
     if c < 0:
         return 0.0
-    d = norm.ppf(a12)
+    d = NORMAL.inv_cdf(a12)
     diffs = np.random.default_rng(seed).standard_normal((draws, n)) + d
     by_size = np.take_along_axis(diffs > 0, np.argsort(np.abs(diffs), axis=1), axis=1)
     w_plus = by_size @ np.arange(1, n + 1)  # sum of the ranks of the positive differences
@@ -84,8 +87,8 @@ def power(n: int, a12: float, *, alpha: float = ALPHA, draws: int = DRAWS, seed:
 
 def noether(a12: float, *, alpha: float = ALPHA, target_power: float = POWER) -> float:
     """Noether's (1987) normal approximation of the pairs the signed-rank test needs."""
-    p = norm.cdf(math.sqrt(2.0) * norm.ppf(a12))  # P(D1 + D2 > 0)
-    return (norm.ppf(1.0 - alpha / 2.0) + norm.ppf(target_power)) ** 2 / (3.0 * (p - 0.5) ** 2)
+    p = NORMAL.cdf(math.sqrt(2.0) * NORMAL.inv_cdf(a12))  # P(D1 + D2 > 0)
+    return (NORMAL.inv_cdf(1.0 - alpha / 2.0) + NORMAL.inv_cdf(target_power)) ** 2 / (3.0 * (p - 0.5) ** 2)
 
 
 @lru_cache(maxsize=1024)
