@@ -98,6 +98,33 @@ def info() -> dict[str, Any]:
 pin()
 
 
+#: ``GDABENCH_ENGINE_THREADS``: Numba threads the voxel engine uses in a trial's process: a number, or ``auto``
+#: (the default: :func:`gdabench.running.cores.engine_threads` in the run's own process, one in a worker)
+THREADS_VARIABLE = "GDABENCH_ENGINE_THREADS"
+
+
+def set_numba_threads(threads: int) -> None:
+    """Run this process's Numba kernels (the voxel engine's) on ``threads`` threads (Numba's pool started)."""
+    import numba
+
+    start_numba_threads()
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))  # type: ignore[attr-defined]
+
+
+def worker_numba_threads() -> None:
+    """A worker's Numba threads: one (the run starts a worker per core), or what the user asked for.
+
+    Where Numba is not loaded yet, only its variable is set, which it reads when something loads it: a
+    worker of a run on ``simple`` never needs Numba, and importing it took a second of every such worker.
+    """
+    requested = os.environ.get(THREADS_VARIABLE, "auto").strip()
+    threads = int(requested) if requested.isdigit() and int(requested) > 0 else 1
+    if "numba" in sys.modules:
+        set_numba_threads(threads)
+    else:
+        os.environ["NUMBA_NUM_THREADS"] = str(threads)
+
+
 def start_numba_threads() -> None:
     """Start Numba's thread pool now, leaving torch's thread count as it was.
 

@@ -110,12 +110,9 @@ def one_core() -> None:
     cores: two co-design trials side by side ran 2,557-2,702 env steps/s together with two threads each
     against 4,167-4,422 with one (docs/benchmarks/codesign-speed.md).  Results do not depend on it.
     """
-    import numba
+    from .cpu import worker_numba_threads
 
-    from .cpu import start_numba_threads
-
-    start_numba_threads()
-    numba.set_num_threads(1)
+    worker_numba_threads()
 
 
 def from_script(factory: object) -> bool:

@@ -17,7 +17,7 @@ import sys
 import time
 from typing import Any
 
-from ..cpu import cpu_count, start_numba_threads
+from ..cpu import cpu_count, set_numba_threads
 from ..envs.voxel import PARALLEL_FROM
 
 _pool: Any = None  # shared count of spare cores (multiprocessing.Value), set in a run's trial processes
@@ -65,9 +65,6 @@ def release() -> None:
 
 
 # -- the voxel engine's threads --------------------------------------------------------------------
-#: ``GDABENCH_ENGINE_THREADS``: Numba threads the voxel engine uses in a trial's own process: a number,
-#: or ``auto`` (the default, :func:`engine_threads`)
-THREADS_VARIABLE = "GDABENCH_ENGINE_THREADS"
 #: a core counts as taken when others kept it this busy since the last look
 TAKEN = 0.5
 
@@ -103,7 +100,7 @@ class CpuShare:
 def engine_threads(batch: int, share: CpuShare | None, requested: str | None = None) -> int:
     """Numba threads for the voxel engine in a trial that runs in its own process, before a generation.
 
-    One, unless the user asks for more (``requested``, from :data:`THREADS_VARIABLE`), or the trial has the
+    One, unless the user asks for more (``requested``, from :data:`gdabench.cpu.THREADS_VARIABLE`), or the trial has the
     machine to itself: its batch is large enough to split (:data:`PARALLEL_FROM`), the run lends it spare
     cores (:func:`borrow`) and no other process kept a core busy since the last generation.  Numba's threads
     wait for each other at every step: one on a core another process holds makes every step wait for it,
@@ -125,7 +122,5 @@ def engine_threads(batch: int, share: CpuShare | None, requested: str | None = N
 
 def use_engine_threads(threads: int) -> None:
     """Set the voxel engine's threads in this process (only where the engine, and so Numba, is loaded)."""
-    numba = sys.modules.get("numba")
-    if numba is not None:
-        start_numba_threads()
-        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    if "numba" in sys.modules:
+        set_numba_threads(threads)

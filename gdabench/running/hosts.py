@@ -21,6 +21,7 @@ from typing import Any, Callable
 import pandas as pd
 
 from .. import spawning
+from ..cpu import THREADS_VARIABLE
 from ..execution.cache import EvaluationCache
 from ..execution.evaluation import instance
 from ..execution.executor import Executor
@@ -115,7 +116,7 @@ class TrialHost:
     def step(self) -> GenerationResult:
         """Run the open trial's next generation."""
         assert self.trial is not None and self._evaluate is not None, "open a trial first"
-        requested = os.environ.get(cores.THREADS_VARIABLE, "auto")
+        requested = os.environ.get(THREADS_VARIABLE, "auto")
         if requested.strip().lower() != "auto" or not self.in_worker:  # a worker's 'auto' is one (one_core)
             cores.use_engine_threads(cores.engine_threads(self._batch, self._share, requested))
         with progress_to(self._note):
