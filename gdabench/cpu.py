@@ -103,6 +103,17 @@ pin()
 THREADS_VARIABLE = "GDABENCH_ENGINE_THREADS"
 
 
+def requested_threads(value: str | None) -> int | None:
+    """The engine threads the user asked for (a :data:`THREADS_VARIABLE` value); None for ``auto``."""
+    value = (value or "auto").strip().lower()
+    if value == "auto":
+        return None
+    try:
+        return max(1, int(value))
+    except ValueError:
+        return 1
+
+
 def set_numba_threads(threads: int) -> None:
     """Run this process's Numba kernels (the voxel engine's) on ``threads`` threads (Numba's pool started)."""
     import numba
@@ -117,8 +128,7 @@ def worker_numba_threads() -> None:
     Where Numba is not loaded yet, only its variable is set, which it reads when something loads it: a
     worker of a run on ``simple`` never needs Numba, and importing it took a second of every such worker.
     """
-    requested = os.environ.get(THREADS_VARIABLE, "auto").strip()
-    threads = int(requested) if requested.isdigit() and int(requested) > 0 else 1
+    threads = requested_threads(os.environ.get(THREADS_VARIABLE)) or 1
     if "numba" in sys.modules:
         set_numba_threads(threads)
     else:

@@ -17,7 +17,7 @@ import sys
 import time
 from typing import Any
 
-from ..cpu import cpu_count, set_numba_threads
+from ..cpu import cpu_count, requested_threads, set_numba_threads
 from ..envs.voxel import PARALLEL_FROM
 
 _pool: Any = None  # shared count of spare cores (multiprocessing.Value), set in a run's trial processes
@@ -106,12 +106,9 @@ def engine_threads(batch: int, share: CpuShare | None, requested: str | None = N
     wait for each other at every step: one on a core another process holds makes every step wait for it,
     which made a run several times slower (146 s against 39 s with one thread beside one busy process).
     """
-    value = (requested or "auto").strip().lower()
-    if value != "auto":
-        try:
-            return max(1, int(value))
-        except ValueError:
-            return 1
+    explicit = requested_threads(requested)
+    if explicit is not None:
+        return explicit
     if batch < PARALLEL_FROM or share is None or not borrow():
         return 1
     others = share.others()
