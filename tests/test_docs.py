@@ -442,7 +442,7 @@ def test_the_evogym_task_page_shows_the_committed_task_outputs():
     task whose parity steps, held-out Spearman and sign agreement, unstable bodies and speed ratio are recomputed here
     from the per-body and per-episode figures, and the tasks it says miss a goal are exactly those."""
     import pandas as pd
-    from scipy.stats import spearmanr
+    from scipy.stats import fisher_exact, spearmanr
 
     from gdabench.envs.tasks import CATALOG
 
@@ -458,7 +458,7 @@ def test_the_evogym_task_page_shows_the_committed_task_outputs():
     rows = {cells[1].strip("` "): [c.strip(" *") for c in cells[2:-1]]
             for cells in (line.split("|") for line in hooks.evogym_task_summary(ROOT).splitlines()[2:])}
     assert list(rows) == list(CATALOG)
-    low = {"Spearman": set(), "sign agreement": set(), "10x speed": set()}
+    low = {"Spearman": set(), "sign agreement": set(), "10x speed": set(), "unstable rate": set()}
     for task, (_, steps, rho_cell, sign_cell, unstable, _, _, ratio, *_) in rows.items():
         firsts = [b["first_over"]["1e-6"] for b in parity[task]["per_body"] if b["first_over"]["1e-6"] is not None]
         assert steps == (str(min(firsts) - 1) if firsts else "all")
@@ -469,7 +469,15 @@ def test_the_evogym_task_page_shows_the_committed_task_outputs():
         assert (rho_cell, sign_cell) == (f"{rho:.3f}", f"{100 * sign:.1f}%"), task
         if task in stability:
             s = stability[task]
-            assert unstable == f"{len(s['unstable_bodies_voxel'])} / {len(s['unstable_bodies_evogym'])}"
+            assert unstable.split(" (")[0] == f"{len(s['unstable_bodies_voxel'])} / {len(s['unstable_bodies_evogym'])}"
+            one_only = set(s["unstable_bodies_voxel"]) ^ set(s["unstable_bodies_evogym"])
+            nudged = {n["body"]: n for n in s.get("nudged", [])}
+            for n in nudged.values():
+                assert f"(nudged {n['runs']} times: {n['voxel']} / {n['evogym']})" in unstable
+            if any(b not in nudged or fisher_exact([[nudged[b]["voxel"], nudged[b]["runs"] - nudged[b]["voxel"]],
+                                                    [nudged[b]["evogym"], nudged[b]["runs"] - nudged[b]["evogym"]]]
+                                                   ).pvalue < 0.05 for b in one_only):
+                low["unstable rate"].add(task)
         else:
             assert unstable == "not run"
         if task in speed:
@@ -486,3 +494,5 @@ def test_the_evogym_task_page_shows_the_committed_task_outputs():
     assert said["* held-out Spearman >= 0.95"] == low["Spearman"]
     assert said["* held-out sign agreement >= 95%"] == low["sign agreement"]
     assert said["* at least 10x Evolution Gym's env steps/s"] == low["10x speed"]
+    rate = next(line for line in hooks.evogym_task_misses(ROOT).splitlines() if "as many unstable bodies" in line)
+    assert set(re.findall(r"`([^`]+)`", rate.split("miss it")[1]) if "miss it" in rate else []) == low["unstable rate"]

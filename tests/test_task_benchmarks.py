@@ -158,3 +158,20 @@ def test_a_body_whose_batch_raises_is_found_and_the_others_kept(monkeypatch):
     episodes, found = stability.check_bodies("Walker-v0", [WALKER, UNSTABLE], actions, [{}, {}])
     assert found["exception"].tolist() == [False, True]
     assert episodes[0]["steps"] == 5 and episodes[1] is None
+
+
+def test_nudged_runs_count_each_simulators_unstable_runs():
+    assert (stability.nudges(5) / twin.NUDGE).round().tolist() == [1, -1, 2, -2, 3]
+    alone = lambda task, body, actions, seed: twin.play(own_draw(task, body, seed), actions)  # noqa: E731
+    for body, unstable in ((UNSTABLE, 3), (WALKER, 0)):
+        actions = stability.actions_for("wave40", twin.actuators(body), 0, 80)
+        out = stability.nudged_runs("Walker-v0", body, actions, 0, 3, alone)
+        assert (out["runs"], out["voxel"], out["evogym"]) == (3, unstable, unstable)
+        assert out["voxel_steps"] == out["evogym_steps"] == [63] * unstable
+
+
+def test_only_episodes_unstable_in_one_simulator_are_nudged():
+    alone = lambda task, body, actions, seed: twin.play(own_draw(task, body, seed), actions)  # noqa: E731
+    result = {"unstable_bodies_voxel": [UNSTABLE.text, WALKER.text], "unstable_bodies_evogym": [UNSTABLE.text]}
+    out = stability.nudged_mismatches("Walker-v0", [UNSTABLE, WALKER], 0, 10, result, 2, alone)
+    assert [n["body"] for n in out] == [WALKER.text] and out[0]["runs"] == 2

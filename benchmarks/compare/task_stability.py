@@ -12,6 +12,12 @@ that moves nothing, plus Evolution Gym's penalty of -3, the episode ended.  It t
 episodes beside Evolution Gym's on the same bodies and actions: in both, in ours only, in Evolution Gym's
 only.
 
+An episode unstable in one simulator only may be a rounding-sized chance: the trajectories of both part from
+any rounding-sized change within a few hundred steps (``task_parity.py --control``).  ``--nudges N`` plays
+each such episode N more times in both simulators, every action changed by a few rounding errors (+1e-14,
+-1e-14, +2e-14, ...), and counts the unstable runs of each: an outcome that both simulators' own nudged runs
+reach at similar rates is a chance of rounding, one that only one simulator reaches is a difference.
+
 Evolution Gym's episodes are written to ``--rows`` (JSON lines) as each finishes, the voxel engine's per
 task; a restart reads them back.  Run it in the venv that has both simulators::
 
@@ -34,6 +40,7 @@ from typing import Any, Callable, Sequence
 import numba
 import numpy as np
 from evogym_twin import (
+    NUDGE,
     Episode,
     EvogymEnv,
     Rows,
@@ -117,12 +124,50 @@ def play_theirs(task: str, body: gdabench.Body, actions: np.ndarray, setup_seed:
         env.close()
 
 
+def nudges(runs: int) -> np.ndarray:
+    """The action offsets of ``runs`` nudged runs: +1, -1, +2, -2, ... times :data:`evogym_twin.NUDGE`."""
+    j = np.arange(runs)
+    return (j // 2 + 1) * np.where(j % 2 == 0, 1.0, -1.0) * NUDGE
+
+
+def nudged_runs(task: str, body: gdabench.Body, actions: np.ndarray, setup_seed: int, runs: int,
+                theirs_player: Callable[[str, gdabench.Body, np.ndarray, int], Episode]) -> dict[str, Any]:
+    """One episode played ``runs`` times in each simulator with every action nudged (:func:`nudges`): how
+    many of each simulator's runs became unstable, and at which steps (the voxel engine's runs take the set-up
+    that Evolution Gym drew from ``setup_seed``)."""
+    offsets = nudges(runs)
+    theirs = [theirs_player(task, body, actions + o, setup_seed) for o in offsets]
+    ours = play_batch(task, [body] * runs, [actions + o for o in offsets], [theirs[0]["setup"]] * runs)
+    return {
+        "body": body.text, "runs": runs,
+        "voxel": sum(e["unstable"] for e in ours), "evogym": sum(t["unstable"] for t in theirs),
+        "voxel_steps": [e["steps"] for e in ours if e["unstable"]],
+        "evogym_steps": [t["steps"] for t in theirs if t["unstable"]],
+    }
+
+
+def episode_inputs(bodies: Sequence[gdabench.Body], seed: int, steps: int) -> tuple[list[int], list[np.ndarray]]:
+    """Each body's set-up seed and random actions."""
+    seeds = [seed * 1_000_003 + k for k in range(len(bodies))]
+    return seeds, [actions_for("random", actuators(b), s, steps) for b, s in zip(bodies, seeds)]
+
+
+def nudged_mismatches(task: str, bodies: Sequence[gdabench.Body], seed: int, steps: int, result: dict[str, Any],
+                      runs: int, theirs_player: Callable[[str, gdabench.Body, np.ndarray, int], Episode] | None = None,
+                      ) -> list[dict[str, Any]]:
+    """:func:`nudged_runs` of every episode of ``result`` (:func:`run_task`'s) unstable in one simulator only."""
+    theirs_player = theirs_player or play_theirs
+    seeds, actions = episode_inputs(bodies, seed, steps)
+    one_only = set(result["unstable_bodies_voxel"]) ^ set(result["unstable_bodies_evogym"])
+    return [nudged_runs(task, b, actions[k], seeds[k], runs, theirs_player)
+            for k, b in enumerate(bodies) if b.text in one_only]
+
+
 def run_task(task: str, bodies: Sequence[gdabench.Body], seed: int, steps: int, rows: Rows | None,
              theirs_player: Callable[[str, gdabench.Body, np.ndarray, int], Episode] | None = play_theirs,
              ) -> dict[str, Any]:
     """Every body of ``task`` on the voxel engine, checked, and (unless ``theirs_player`` is None) on Evolution Gym."""
-    seeds = [seed * 1_000_003 + k for k in range(len(bodies))]
-    actions = [actions_for("random", actuators(b), s, steps) for b, s in zip(bodies, seeds)]
+    seeds, actions = episode_inputs(bodies, seed, steps)
     theirs: list[Episode | None] = []
     for body, s, a in zip(bodies, seeds, actions):
         if theirs_player is None:
@@ -172,6 +217,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seed", type=int, default=1, help="seed of the bodies and their actions")
     parser.add_argument("--steps", type=int, default=None, help="at most this many steps (default: the task's limit)")
     parser.add_argument("--no-evogym", action="store_true", help="the voxel engine's checks alone")
+    parser.add_argument("--nudges", type=int, default=0,
+                        help="play each episode unstable in one simulator only this many times more in both, nudged")
     parser.add_argument("--rows", type=Path, help="JSON lines of finished episodes and tasks, reused on a restart")
     parser.add_argument("--out", type=Path, help="write every task's figures here (JSON)")
     args = parser.parse_args(argv)
@@ -196,13 +243,23 @@ def main(argv: list[str] | None = None) -> None:
             row = {"kind": "stability", "task": task, "settings": settings,
                    "result": run_task(task, bodies, args.seed, steps, rows, None if args.no_evogym else play_theirs)}
             rows.add(row)
-        r = row["result"]
+        r = dict(row["result"])
+        if args.nudges and r.get("unstable_voxel_only", 0) + r.get("unstable_evogym_only", 0):
+            nudged = rows.find(kind="nudged", task=task, settings=settings, runs=args.nudges)
+            if nudged is None:
+                bodies = task_bodies(task, args.bodies, args.seed)
+                nudged = {"kind": "nudged", "task": task, "settings": settings, "runs": args.nudges,
+                          "result": nudged_mismatches(task, bodies, args.seed, steps, r, args.nudges)}
+                rows.add(nudged)
+            r["nudged"] = nudged["result"]
         results.append(r)
         problems = ", ".join(f"{k} {v}" for k, v in r["problems"].items() if v) or "none"
         theirs = (f"{r['unstable_evogym']} ({r['unstable_voxel_only']} / {r['unstable_evogym_only']})"
                   if "unstable_evogym" in r else "not run")
         print(f"| {task} | {r['difficulty']} | {r['env_steps']} | {problems} | {r['unstable_voxel']} / {theirs} |",
               flush=True)
+        for n in r.get("nudged", []):
+            print(f"|   {n['body']} nudged {n['runs']} times | | | | unstable runs: {n['voxel']} / {n['evogym']} |")
     if args.out:
         lines = ",\n".join(json.dumps(rounded(r, 4), separators=(",", ":")) for r in results)
         args.out.write_text('{"command":"benchmarks/compare/task_stability.py","settings":%s,"tasks":[\n%s\n]}\n'

@@ -434,9 +434,35 @@ TASK_GOALS = {
     "sign agreement": "held-out sign agreement >= {sign_agreement:.0%}",
     "unstable in one simulator only": "no held-out episode unstable in one simulator only",
     "stability checks": "random actions: no NaN, observations inside their space, unstable steps undone and penalised",
-    "unstable rate": "random actions: as many unstable bodies as Evolution Gym has",
+    "unstable rate": "random actions: as many unstable bodies as Evolution Gym has, or, for each body unstable in one "
+                     "simulator only, unstable rates over nudged runs that do not differ (Fisher's exact p >= 0.05)",
     "10x speed": "at least {speed:.0f}x Evolution Gym's env steps/s",
 }
+
+
+#: below this p (Fisher's exact test), two simulators' unstable rates over nudged runs of an episode differ
+NUDGED_ALPHA = 0.05
+
+
+def nudged_rates_agree(stability: dict[str, Any]) -> bool:
+    """Whether every body unstable in one simulator only became unstable at rates that do not differ over its
+    nudged runs (``task_stability.py --nudges``): then the one draw that differed was a chance of rounding."""
+    from scipy.stats import fisher_exact
+
+    one_only = set(stability["unstable_bodies_voxel"]) ^ set(stability["unstable_bodies_evogym"])
+    nudged = {n["body"]: n for n in stability.get("nudged", [])}
+    if not one_only <= set(nudged):
+        return False
+    return all(fisher_exact([[n["voxel"], n["runs"] - n["voxel"]], [n["evogym"], n["runs"] - n["evogym"]]]).pvalue
+               >= NUDGED_ALPHA for n in (nudged[b] for b in one_only))
+
+
+def _unstable_cell(stability: dict[str, Any]) -> str:
+    """Unstable bodies on each simulator, and the nudged runs' unstable counts where they were played."""
+    cell = f"{stability['unstable_voxel']} / {stability['unstable_evogym']}"
+    for n in stability.get("nudged", []):
+        cell += f" (nudged {n['runs']} times: {n['voxel']} / {n['evogym']})"
+    return cell
 
 
 def task_goals(evidence: dict[str, Any], task: str) -> dict[str, bool | None]:
@@ -452,7 +478,8 @@ def task_goals(evidence: dict[str, Any], task: str) -> dict[str, bool | None]:
         "unstable in one simulator only": met(
             held, lambda: held["unstable_ours_only"] + held["unstable_evogym_only"] == 0),
         "stability checks": met(stability, lambda: not any(stability["problems"].values())),
-        "unstable rate": met(stability, lambda: stability.get("unstable_voxel") == stability.get("unstable_evogym")),
+        "unstable rate": met(stability, lambda: stability.get("unstable_voxel") == stability.get("unstable_evogym")
+                             or nudged_rates_agree(stability)),
         "10x speed": met(speed, lambda: speed["ratio"] >= TASK_SPEED_GOAL),
     }
 
@@ -478,17 +505,17 @@ def evogym_task_summary(root: Path) -> str:
         task = entry.id
         parity, stability, speed = (ev[k].get(task) for k in ("parity", "stability", "speed"))
         held = ev["fidelity"].get(task, {}).get("parts", {}).get("held-out")
+        goals = task_goals(ev, task)
         bold = lambda text, miss: f"**{text}**" if miss else text  # noqa: E731
         cells = [f"`{task}`", entry.difficulty, _steps(parity) if parity else "not run"]
         cells += [bold(f"{held['spearman']:.3f}", held["spearman"] < goal["spearman"]),
                   bold(_share(held["sign_agreement"]), held["sign_agreement"] < goal["sign_agreement"])] \
             if held else ["not run"] * 2
-        cells.append(bold(f"{stability['unstable_voxel']} / {stability['unstable_evogym']}",
-                          stability["unstable_voxel"] != stability["unstable_evogym"]) if stability else "not run")
+        cells.append(bold(_unstable_cell(stability), goals["unstable rate"] is False) if stability
+                     else "not run")
         cells += [f"{speed['voxel']:,.0f}", f"{speed['evogym']:,.0f}",
                   bold(f"{speed['ratio']:.1f}x", speed["ratio"] < TASK_SPEED_GOAL),
                   f"{speed['bytes_per_env'] / 1e3:.0f}"] if speed else ["not run"] * 4
-        goals = task_goals(ev, task)
         unmeasured = [name for name, met in goals.items() if met is None]
         cells.append((", ".join(name for name, met in goals.items() if met is False) or "none")
                      + (f" (not measured: {', '.join(unmeasured)})" if unmeasured else ""))
