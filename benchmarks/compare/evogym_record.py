@@ -91,7 +91,7 @@ def gait(t: int, n: int) -> np.ndarray:
     return np.clip(1.1 + 0.45 * np.sin(2 * math.pi * t / 16 + 1.3 * k) * np.cos(2 * math.pi * t / 90), 0.6, 1.6)
 
 
-class _ZeroedEmpty:
+class ZeroedEmpty:
     """numpy for ``evogym.sim``, with ``empty`` giving zeros.  ``EvoSim`` passes ``np.empty((2, 1))`` as the
     connections of an object without any (a single voxel: Traverser-v0's 1x1 block); the C++ side reads those
     uninitialised numbers as voxel indices, which crashes at random.  Zeros are a connection of voxel 0 to itself,
@@ -110,7 +110,7 @@ def record_task(task: str, index: int, steps: int) -> dict[str, np.ndarray]:
     with contextlib.redirect_stdout(io.StringIO()):
         import evogym.envs  # registers the tasks
         import evogym.sim
-    evogym.sim.np = _ZeroedEmpty()
+    evogym.sim.np = ZeroedEmpty()
     body_text = TASK_BODIES[index]
     body = np.array([[int(c) for c in r] for r in body_text.split("/")])
     random.seed(0)

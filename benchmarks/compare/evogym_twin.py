@@ -105,9 +105,9 @@ class EvogymEnv:
             import evogym.envs
             import evogym.sim
             from evogym.simulator_cpp import Sim
-        from evogym_record import _ZeroedEmpty
+        from evogym_record import ZeroedEmpty
 
-        evogym.sim.np = _ZeroedEmpty()  # one-voxel objects (Traverser-v0) crash EvoSim at random otherwise
+        evogym.sim.np = ZeroedEmpty()  # one-voxel objects (Traverser-v0) crash EvoSim at random otherwise
         self._read = Sim.object_pos_at_time
         random.seed(setup_seed)
         with quiet():
