@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from .config import FAITHFUL_TIMESTEPS, LAPTOP_TIMESTEPS, PPOConfig
+from .config import DEFAULT_TIMESTEPS, FAITHFUL_TIMESTEPS, PPOConfig
 
-__all__ = ["FAITHFUL_TIMESTEPS", "LAPTOP_TIMESTEPS", "PPO", "PPOConfig", "replay"]
+__all__ = ["DEFAULT_TIMESTEPS", "FAITHFUL_TIMESTEPS", "PPO", "PPOConfig", "replay"]
 
 
 def __getattr__(name: str) -> Any:
