@@ -27,6 +27,11 @@ WALKER = gdabench.Body.from_text("11111/13331/40004/40004/40004")
 UNSTABLE = gdabench.Body.from_text("11111/44444/40404/40404/40404")
 
 
+def alone(task, body, actions, seed):
+    """The voxel engine as the other simulator (:func:`own_draw`), one episode."""
+    return twin.play(own_draw(task, body, seed), actions)
+
+
 class Nudged(twin.VoxelEnv):
     """The voxel engine with every action changed by ``nudge``: a simulator that drifts away."""
 
@@ -131,7 +136,6 @@ def test_step_problems_flag_what_slipped_through():
 
 
 def test_stability_checks_an_unstable_episode_and_sets_it_beside_the_other_simulator():
-    alone = lambda task, body, actions, seed: twin.play(own_draw(task, body, seed), actions)  # noqa: E731
     bodies = [UNSTABLE, WALKER]
     checks = stability.Checks(2)
     actions = [stability.actions_for("wave40", twin.actuators(b), 0, 80) for b in bodies]
@@ -162,7 +166,6 @@ def test_a_body_whose_batch_raises_is_found_and_the_others_kept(monkeypatch):
 
 def test_nudged_runs_count_each_simulators_unstable_runs():
     assert (stability.nudges(5) / twin.NUDGE).round().tolist() == [1, -1, 2, -2, 3]
-    alone = lambda task, body, actions, seed: twin.play(own_draw(task, body, seed), actions)  # noqa: E731
     for body, unstable in ((UNSTABLE, 3), (WALKER, 0)):
         actions = stability.actions_for("wave40", twin.actuators(body), 0, 80)
         out = stability.nudged_runs("Walker-v0", body, actions, 0, 3, alone)
@@ -171,7 +174,6 @@ def test_nudged_runs_count_each_simulators_unstable_runs():
 
 
 def test_only_episodes_unstable_in_one_simulator_are_nudged():
-    alone = lambda task, body, actions, seed: twin.play(own_draw(task, body, seed), actions)  # noqa: E731
     result = {"unstable_bodies_voxel": [UNSTABLE.text, WALKER.text], "unstable_bodies_evogym": [UNSTABLE.text]}
     out = stability.nudged_mismatches("Walker-v0", [UNSTABLE, WALKER], 0, 10, result, 2, alone)
     assert [n["body"] for n in out] == [WALKER.text] and out[0]["runs"] == 2

@@ -101,16 +101,22 @@ class ZeroedEmpty:
         return np.zeros if name == "empty" else getattr(np, name)
 
 
+def load_evogym() -> None:
+    """Import Evolution Gym quietly (its tasks registered) with :class:`ZeroedEmpty` in place, so that every task's
+    world builds without a crash."""
+    with contextlib.redirect_stdout(io.StringIO()):
+        import evogym.envs  # registers the tasks
+        import evogym.sim
+    evogym.sim.np = ZeroedEmpty()
+
+
 def record_task(task: str, index: int, steps: int) -> dict[str, np.ndarray]:
     import random
 
     import gymnasium
     from evogym.simulator_cpp import Sim
 
-    with contextlib.redirect_stdout(io.StringIO()):
-        import evogym.envs  # registers the tasks
-        import evogym.sim
-    evogym.sim.np = ZeroedEmpty()
+    load_evogym()
     body_text = TASK_BODIES[index]
     body = np.array([[int(c) for c in r] for r in body_text.split("/")])
     random.seed(0)

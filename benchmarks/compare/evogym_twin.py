@@ -100,14 +100,12 @@ class EvogymEnv:
 
     def __init__(self, task: str, body: gdabench.Body, setup_seed: int = 0):
         import gymnasium
+        from evogym_record import load_evogym
 
         with quiet():
-            import evogym.envs
-            import evogym.sim
-            from evogym.simulator_cpp import Sim
-        from evogym_record import ZeroedEmpty
+            load_evogym()
+        from evogym.simulator_cpp import Sim
 
-        evogym.sim.np = ZeroedEmpty()  # one-voxel objects (Traverser-v0) crash EvoSim at random otherwise
         self._read = Sim.object_pos_at_time
         random.seed(setup_seed)
         with quiet():

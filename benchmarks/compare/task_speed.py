@@ -83,12 +83,9 @@ def engine_rate(task: str, bodies: list[gdabench.Body], seconds: float) -> tuple
 def evogym_rate(task: str, bodies: list[gdabench.Body], seconds: float) -> float:
     """Evolution Gym's env steps/s on ``bodies``, one environment at a time (its own Gymnasium env)."""
     import gymnasium
-    from evogym_record import ZeroedEmpty
+    from evogym_record import load_evogym
 
-    with contextlib.redirect_stdout(io.StringIO()):
-        import evogym.envs  # registers the tasks
-        import evogym.sim
-    evogym.sim.np = ZeroedEmpty()  # Traverser-v0's one-voxel blocks crash EvoSim at random otherwise
+    load_evogym()
     steps, spent = 0, 0.0
     for i, body in enumerate(bodies):
         with contextlib.redirect_stdout(io.StringIO()):
