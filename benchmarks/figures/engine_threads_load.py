@@ -3,6 +3,7 @@ them (``GDABENCH_ENGINE_THREADS=auto``) and with Numba's default (a thread per C
 
     python benchmarks/figures/engine_threads_load.py --repeats 3
     python benchmarks/figures/engine_threads_load.py --engine-only --repeats 5    # the engine's step alone, seconds
+    python benchmarks/figures/engine_threads_load.py --loop-only --repeats 7      # no gdabench: a core's share
 
 Each arm runs the same command (25 random bodies learning 2,048 timesteps in lockstep on the walker,
 in the command's own process, without re-evaluation: the run of issue 57) and the arms alternate, so
@@ -80,14 +81,40 @@ def engine_only(repeats: int, steps: int = 300) -> None:
         print(f"busy with {threads} thread(s) / quiet with the faster choice: x{ratio:.2f}")
 
 
+def loop_only(repeats: int, n: int = 20_000_000) -> None:
+    """A pure Python loop (no memory traffic, one thread) alone and beside one busy process: how much of its
+    core a process keeps when the other core is busy, whatever gdabench does.  Above 1, the two CPUs share
+    hardware (host hyper-threads, or a clock that drops when both cores run)."""
+    times: dict[bool, list[float]] = {False: [], True: []}
+    for _ in range(repeats):
+        for busy in (False, True):
+            spinner = subprocess.Popen([sys.executable, "-c", SPIN]) if busy else None
+            time.sleep(0.2 if busy else 0)
+            start = time.perf_counter()
+            for _ in range(n):
+                pass
+            times[busy].append(time.perf_counter() - start)
+            if spinner is not None:
+                spinner.kill()
+                spinner.wait()
+    for busy, t in times.items():
+        print(f"loop, {'busy' if busy else 'quiet'}: median {statistics.median(t):.3f} s "
+              f"({', '.join(f'{x:.3f}' for x in t)}; load {os.getloadavg()[0]:.1f})")
+    print(f"loop busy / quiet: x{statistics.median(times[True]) / statistics.median(times[False]):.2f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--engine-only", action="store_true", help="time the engine's batch step alone")
+    parser.add_argument("--loop-only", action="store_true", help="time a pure Python loop alone, no gdabench")
     parser.add_argument("--arms", default="", help="only these arms, separated by ';' ('auto, quiet;1 thread, quiet')")
     args = parser.parse_args()
     if args.engine_only:
         engine_only(args.repeats)
+        return
+    if args.loop_only:
+        loop_only(args.repeats)
         return
     cpus = os.cpu_count() or 1
     # "1 thread, quiet": the run on one core of a quiet machine, what it can keep beside a process on the other
