@@ -12,8 +12,9 @@ For each task of ``--tasks`` and each per-body budget T of ``--budgets`` (timest
    generation 0's bodies together and carried on to generation 1's;
    and ``scratch`` at 4T, the reference ranking;
 3. prints per task and budget: each way's median child reward and the median paired difference against
-   ``scratch``; each way's Spearman rank correlation with ``scratch`` at 4T, and how many of the 4T top 5
-   its top 5 holds (the survivors a designer would keep); its env steps per second in this process.
+   ``scratch``, with Wilcoxon's signed-rank p-value of the pairs; each way's Spearman rank correlation with
+   ``scratch`` at 4T, and how many of the 4T top 5 its top 5 holds (the survivors a designer would keep); its
+   env steps per second in this process.
 
 Policies are saved under ``--out`` (one folder per task, budget and way): a rerun replays what is there, so
 an interrupted measurement resumes.  One process, one torch thread: run it on a quiet machine, or beside a
@@ -44,6 +45,15 @@ def spearman(a: list[float], b: list[float]) -> float:
     from scipy.stats import spearmanr
 
     return float(spearmanr(a, b).statistic) if len(a) > 2 else float("nan")
+
+
+def paired_p(a: list[float], b: list[float]) -> float:
+    """Wilcoxon's signed-rank p-value of the paired differences (two-sided); nan where there are none."""
+    from scipy.stats import wilcoxon
+
+    if len(a) < 2 or all(x == y for x, y in zip(a, b)):
+        return float("nan")
+    return float(wilcoxon(a, b).pvalue)
 
 
 def top_overlap(a: list[float], b: list[float], k: int = TOP) -> int:
@@ -139,6 +149,7 @@ def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any]:
         r = rewards[way]
         row[f"{way}_median"] = statistics.median(r)
         row[f"{way}_minus_scratch"] = statistics.median(a - b for a, b in zip(r, rewards["scratch"]))
+        row[f"{way}_wilcoxon_p"] = paired_p(r, rewards["scratch"])
         row[f"{way}_spearman_4x"] = spearman(r, reference)
         row[f"{way}_top{TOP}_of_4x"] = top_overlap(r, reference)
         row[f"{way}_steps_per_s"] = speed[way]
@@ -147,12 +158,15 @@ def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any]:
 
 
 def show(rows: list[dict[str, Any]]) -> None:
-    print(f"{'task':<18}{'T':>8}  {'way':<8}{'median':>8}{'- scratch':>10}{'rho 4x':>8}{f'top{TOP}':>6}{'steps/s':>9}")
+    print(
+        f"{'task':<18}{'T':>8}  {'way':<8}{'median':>8}{'- scratch':>10}{'p':>8}{'rho 4x':>8}{f'top{TOP}':>6}"
+        f"{'steps/s':>9}"
+    )
     for row in rows:
         for way in WAYS:
             print(
                 f"{row['task']:<18}{row['budget']:>8}  {way:<8}{row[f'{way}_median']:>8.3f}"
-                f"{row[f'{way}_minus_scratch']:>10.3f}{row[f'{way}_spearman_4x']:>8.2f}"
+                f"{row[f'{way}_minus_scratch']:>10.3f}{row[f'{way}_wilcoxon_p']:>8.2g}{row[f'{way}_spearman_4x']:>8.2f}"
                 f"{row[f'{way}_top{TOP}_of_4x']:>6}{row[f'{way}_steps_per_s']:>9.0f}"
             )
 
