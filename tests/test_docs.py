@@ -114,6 +114,38 @@ def test_the_thesis_budget_table_is_the_committed_rows_against_the_authors():
         assert line.split(" | ")[3] == f"{spearmanr(g['reward'], g['author']).statistic:.2f}"
 
 
+def test_the_controllers_page_shows_the_committed_comparison_and_codesign_runs():
+    """The controller comparison's tables come from its committed outputs: each way's median, Spearman with 4x
+    and paired p recomputed here from every body's rewards, and each designer's best per seed from the co-design
+    runs' evaluations (a row edited by hand, or an output that the page's numbers do not rest on, fails)."""
+    import statistics
+
+    import pandas as pd
+    from scipy.stats import spearmanr, wilcoxon
+
+    hooks = docs_hooks()
+    page = (ROOT / "docs" / "benchmarks" / "controllers.md").read_text()
+    assert "<!-- gdabench:controllers-compare -->" in page and "<!-- gdabench:controllers-codesign -->" in page
+    table = hooks.controllers_compare(ROOT).splitlines()
+    rows = json.loads((ROOT / hooks.CONTROLLERS_COMPARE).read_text())
+    assert {r["task"] for r in rows} >= {"Walker-v0", "Carrier-v0", "Climber-v0"}
+    for row in rows:
+        rewards = row["rewards"]
+        start = next(i for i, line in enumerate(table) if line.startswith(f"| {row['task']}, T = {row['budget']:,} |"))
+        for line, way in zip(table[start:], ("scratch", "parent", "modular")):
+            cells = [c.strip() for c in line.split("|")[1:-1]]
+            assert cells[1] == f"`{way}`" and cells[2] == f"{statistics.median(rewards[way]):.3f}"
+            assert cells[6] == f"{spearmanr(rewards[way], rewards['scratch4x']).statistic:.2f}"
+            if way != "scratch":
+                assert cells[5] == f"{wilcoxon(rewards[way], rewards['scratch']).pvalue:.2g}"
+    runs = pd.read_csv(ROOT / hooks.CONTROLLERS_CODESIGN)
+    assert set(runs["controller"]) == {"ppo", "ppo[init=parent]", "modular-ppo"} and set(runs["seed"]) == {0, 1, 2}
+    codesign = hooks.controllers_codesign(ROOT)
+    for (controller, designer), g in runs.groupby(["controller", "designer"]):
+        best = g.groupby("seed")["reward"].max()
+        assert ", ".join(f"{v:.2f}" for v in best) in next(r for r in codesign.splitlines() if f"`{controller}`" in r)
+
+
 def test_the_walker_pages_reevaluation_is_the_runs():
     """Raw against re-evaluated best on the walker page, from the committed re-evaluations (once committed)."""
     from gdabench.results import load_reevaluations as load, read_parquet

@@ -20,11 +20,16 @@ Policies are saved under ``--out`` (one folder per task, budget and way): a reru
 an interrupted measurement resumes.  One process, one torch thread: run it on a quiet machine, or beside a
 known load and say so.  ``--json`` writes every row.
 
+``--codesign RUN,RUN,...`` instead reads finished ``gdabench compare`` runs of the same designers under
+different controllers (the co-design half of the issue's item 3), writes their evaluations to ``--csv`` and
+prints each designer's best reward per seed under each controller.
+
 Usage::
 
     python benchmarks/figures/controllers_compare.py --out /tmp/controllers --budgets 12500,50000,200000
     python benchmarks/figures/controllers_compare.py --out /tmp/controllers --tasks Walker-v0,BridgeWalker-v0,Climber-v0
     python benchmarks/figures/controllers_compare.py --out /tmp/smoke --budgets 128 --population 3   # a smoke test
+    python benchmarks/figures/controllers_compare.py --codesign runs/ppo,runs/parent,runs/modular --csv codesign.csv
 """
 
 from __future__ import annotations
@@ -171,16 +176,84 @@ def show(rows: list[dict[str, Any]]) -> None:
             )
 
 
+def markdown(rows: list[dict[str, Any]]) -> str:
+    """The rows as the documentation's table: per task, each way and the reference at 4T."""
+    head = (
+        "| task | way | median reward | paired difference to `scratch`, median | children better than `scratch` "
+        f"| Wilcoxon p | Spearman with `scratch` at 4T | top {TOP} of 4T kept |"
+    )
+    lines = [head, "|---|---|--:|--:|--:|--:|--:|--:|"]
+    for row in rows:
+        rewards = row["rewards"]
+        n = len(rewards["scratch"])
+        task = f"{row['task']}, T = {row['budget']:,}"
+        for way in WAYS:
+            better = sum(a > b for a, b in zip(rewards[way], rewards["scratch"]))
+            cells = ["", "", "", ""] if way == "scratch" else [
+                f"{row[f'{way}_minus_scratch']:+.3f}", f"{better} / {n}", f"{row[f'{way}_wilcoxon_p']:.2g}"
+            ]  # fmt: skip
+            lines.append(
+                f"| {task} | `{way}` | {row[f'{way}_median']:.3f} | {cells[0]} | {cells[1]} | {cells[2]} "
+                f"| {row[f'{way}_spearman_4x']:.2f} | {row[f'{way}_top{TOP}_of_4x']} |"
+            )
+            task = ""
+        lines.append(f"| | `scratch` at 4T | {statistics.median(rewards['scratch4x']):.3f} | | | | 1 | {TOP} |")
+    return "\n".join(lines)
+
+
+CODESIGN_COLUMNS = ["controller", "designer", "seed", "generation", "body", "reward", "status"]
+
+
+def codesign_rows(runs: list[Path]) -> Any:
+    """The evaluations of finished co-design runs, one row per evaluated body, with each run's controller."""
+    import pandas as pd
+
+    from gdabench.results import RunDirectory
+
+    frames = [RunDirectory.open(run).load_evaluations() for run in runs]
+    return pd.concat([f[CODESIGN_COLUMNS] for f in frames], ignore_index=True)
+
+
+def codesign_table(rows: Any) -> str:
+    """Each designer's best reward per seed under each controller, and the designers' difference seed by seed."""
+    best = rows.groupby(["controller", "designer", "seed"], sort=False)["reward"].max()
+    designers = list(dict.fromkeys(rows["designer"]))
+    seeds = sorted(set(rows["seed"]))
+    head = " | ".join(f"{d}, best per seed" for d in designers)
+    rule = "|---" * (len(designers) + 2) + "|"
+    lines = [f"| controller | {head} | {' - '.join(designers)}, per seed |", rule]
+    for controller in dict.fromkeys(rows["controller"]):
+        cells = []
+        for designer in designers:
+            values = [best[(controller, designer, s)] for s in seeds]
+            cells.append(f"{', '.join(f'{v:.2f}' for v in values)} (median {statistics.median(values):.2f})")
+        if len(designers) == 2:
+            diffs = [best[(controller, designers[0], s)] - best[(controller, designers[1], s)] for s in seeds]
+            cells.append(", ".join(f"{d:+.2f}" for d in diffs))
+        lines.append(f"| `{controller}` | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--out", type=Path, required=True, help="where policies and results are kept (resumable)")
+    parser.add_argument("--out", type=Path, help="where policies and results are kept (resumable)")
     parser.add_argument("--tasks", default="Walker-v0", help="Evolution Gym tasks on the voxel engine, comma-separated")
     parser.add_argument("--budgets", default="12500,50000,200000", help="timesteps per body, comma-separated")
     parser.add_argument("--designer", default="ga", help="the designer whose generations are trained")
     parser.add_argument("--population", type=int, default=25)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", type=Path, help="write every row (with each body's rewards) here")
+    parser.add_argument("--codesign", help="finished compare runs to read instead, comma-separated")
+    parser.add_argument("--csv", type=Path, help="with --codesign: write their evaluations here")
     args = parser.parse_args()
+    if args.codesign:
+        rows = codesign_rows([Path(run) for run in args.codesign.split(",")])
+        if args.csv:
+            rows.to_csv(args.csv, index=False)
+        print(codesign_table(rows))
+        return
+    if args.out is None:
+        parser.error("--out is required (or --codesign)")
     import torch
 
     torch.set_num_threads(1)

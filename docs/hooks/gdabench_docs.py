@@ -29,6 +29,10 @@ Generated so that they cannot drift from the code or the committed data:
   against Evolution Gym on its 32 tasks (parity steps, fidelity, stability, speed, the goals missed and Evolution
   Gym against itself), from the ``task-*.json`` and ``task-fidelity*.csv`` outputs in ``docs/benchmarks/output/``
   (``benchmarks/compare/task_parity.py``, ``task_fidelity.py``, ``task_stability.py``, ``task_speed.py``);
+* ``<!-- gdabench:controllers-compare -->`` and ``<!-- gdabench:controllers-codesign -->`` become the controllers
+  that learn many bodies against per-body PPO (reward per body; short co-design runs), from
+  ``docs/benchmarks/output/controllers-compare-12500.json`` and ``controllers-codesign.csv``
+  (``benchmarks/figures/controllers_compare.py``, whose own tables they are);
 * ``<!-- gdabench:extras -->`` becomes the table of the optional extras in ``pyproject.toml``.
 
 Files outside ``docs/`` that pages show or link to (the committed reference runs under
@@ -63,6 +67,9 @@ PUBLISHED = "results/reference"
 THESIS_BODIES = "docs/benchmarks/output/thesis-walker-bodies.csv"
 #: what benchmarks/figures/thesis_budget.py trained of them, row by row
 THESIS_BUDGET = "docs/benchmarks/output/thesis-budget.csv"
+#: benchmarks/figures/controllers_compare.py's rows (reward per body) and the co-design runs' evaluations
+CONTROLLERS_COMPARE = "docs/benchmarks/output/controllers-compare-12500.json"
+CONTROLLERS_CODESIGN = "docs/benchmarks/output/controllers-codesign.csv"
 #: the outputs of the task benchmarks (benchmarks/compare/task_*.py); the controls may be missing (not run yet)
 TASK_OUTPUT = "docs/benchmarks/output"
 #: issue 53's speed goal: env steps/s of a batch of 64 on one core against Evolution Gym's, on every task
@@ -619,6 +626,26 @@ def thesis_budget(root: Path) -> str:
     return budget.markdown(budget.table(rows))
 
 
+def controllers_compare(root: Path) -> str:
+    """Reward per body under each controller against per-body PPO, from the script's own rows."""
+    try:
+        rows = json.loads((root / CONTROLLERS_COMPARE).read_text())
+    except OSError as exc:
+        raise PluginError(f"cannot read {CONTROLLERS_COMPARE}: {exc}") from exc
+    return _benchmark(root, "figures/controllers_compare").markdown(rows)
+
+
+def controllers_codesign(root: Path) -> str:
+    """The designers' best rewards per seed under each controller, from the co-design runs' evaluations."""
+    import pandas as pd
+
+    try:
+        rows = pd.read_csv(root / CONTROLLERS_CODESIGN)
+    except OSError as exc:
+        raise PluginError(f"cannot read {CONTROLLERS_CODESIGN}: {exc}") from exc
+    return _benchmark(root, "figures/controllers_compare").codesign_table(rows)
+
+
 def thesis_budget_bodies(root: Path) -> str:
     """Every body of the sample: the author's reward and each budget's (mean over its training seeds)."""
     import pandas as pd
@@ -771,6 +798,8 @@ def on_page_markdown(markdown: str, page: Any, config: Any, files: Files) -> str
         "walker-tests": lambda: walker_tests(root),
         "thesis-budget": lambda: thesis_budget(root),
         "thesis-budget-bodies": lambda: thesis_budget_bodies(root),
+        "controllers-compare": lambda: controllers_compare(root),
+        "controllers-codesign": lambda: controllers_codesign(root),
         "extras": lambda: extras_table(root),
         "evogym-tasks": evogym_tasks,
         "evogym-task-summary": lambda: evogym_task_summary(root),
