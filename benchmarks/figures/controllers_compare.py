@@ -215,20 +215,18 @@ def codesign_rows(runs: list[Path]) -> Any:
 
 
 def codesign_table(rows: Any) -> str:
-    """Each designer's best reward per seed under each controller, and the designers' difference seed by seed."""
+    """Each designer's best reward per seed under each controller, and the designers' difference seed by seed
+    (seeds a run has not finished are left out)."""
     best = rows.groupby(["controller", "designer", "seed"], sort=False)["reward"].max()
     designers = list(dict.fromkeys(rows["designer"]))
-    seeds = sorted(set(rows["seed"]))
     head = " | ".join(f"{d}, best per seed" for d in designers)
     rule = "|---" * (len(designers) + 2) + "|"
     lines = [f"| controller | {head} | {' - '.join(designers)}, per seed |", rule]
     for controller in dict.fromkeys(rows["controller"]):
-        cells = []
-        for designer in designers:
-            values = [best[(controller, designer, s)] for s in seeds]
-            cells.append(f"{', '.join(f'{v:.2f}' for v in values)} (median {statistics.median(values):.2f})")
+        per = {d: best[controller][d] if d in best[controller] else best[controller][:0] for d in designers}
+        cells = [f"{', '.join(f'{v:.2f}' for v in per[d])} (median {per[d].median():.2f})" for d in designers]
         if len(designers) == 2:
-            diffs = [best[(controller, designers[0], s)] - best[(controller, designers[1], s)] for s in seeds]
+            diffs = (per[designers[0]] - per[designers[1]]).dropna()
             cells.append(", ".join(f"{d:+.2f}" for d in diffs))
         lines.append(f"| `{controller}` | " + " | ".join(cells) + " |")
     return "\n".join(lines)
