@@ -217,17 +217,16 @@ def codesign_rows(runs: list[Path]) -> Any:
 def codesign_table(rows: Any) -> str:
     """Each designer's best reward per seed under each controller, and the designers' difference seed by seed
     (seeds a run has not finished are left out)."""
-    best = rows.groupby(["controller", "designer", "seed"], sort=False)["reward"].max()
+    best = rows.groupby(["controller", "designer", "seed"], sort=False)["reward"].max().unstack("designer")
     designers = list(dict.fromkeys(rows["designer"]))
     head = " | ".join(f"{d}, best per seed" for d in designers)
     rule = "|---" * (len(designers) + 2) + "|"
     lines = [f"| controller | {head} | {' - '.join(designers)}, per seed |", rule]
     for controller in dict.fromkeys(rows["controller"]):
-        per = {d: best[controller][d] if d in best[controller] else best[controller][:0] for d in designers}
-        cells = [f"{', '.join(f'{v:.2f}' for v in per[d])} (median {per[d].median():.2f})" for d in designers]
+        per = best.loc[controller]  # seeds x designers, NaN where a trial is missing
+        cells = [", ".join(f"{v:.2f}" for v in per[d].dropna()) + f" (median {per[d].median():.2f})" for d in designers]
         if len(designers) == 2:
-            diffs = (per[designers[0]] - per[designers[1]]).dropna()
-            cells.append(", ".join(f"{d:+.2f}" for d in diffs))
+            cells.append(", ".join(f"{d:+.2f}" for d in (per[designers[0]] - per[designers[1]]).dropna()))
         lines.append(f"| `{controller}` | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 

@@ -16,12 +16,14 @@ busy/quiet, against either quiet arm; the goal is at most 1.3.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 COMMAND = ["-m", "gdabench", "compare", "-d", "random", "--env", "walker", "-c", "ppo[timesteps=2048]",
@@ -30,17 +32,25 @@ COMMAND = ["-m", "gdabench", "compare", "-d", "random", "--env", "walker", "-c",
 SPIN = "import time\nwhile True:\n    pass\n"
 
 
-def run(threads: str, busy: bool, out: Path) -> float:
-    env = {**os.environ, "GDABENCH_ENGINE_THREADS": threads}
+@contextlib.contextmanager
+def beside_busy(busy: bool, settle: float = 0.0) -> Iterator[None]:
+    """One process spinning on a core for the block (where ``busy``), given ``settle`` seconds to start."""
     spinner = subprocess.Popen([sys.executable, "-c", SPIN]) if busy else None
     try:
-        start = time.perf_counter()
-        subprocess.run([sys.executable, *COMMAND, "--out", str(out)], env=env, check=True)
-        return time.perf_counter() - start
+        time.sleep(settle if busy else 0)
+        yield
     finally:
         if spinner is not None:
             spinner.kill()
             spinner.wait()
+
+
+def run(threads: str, busy: bool, out: Path) -> float:
+    env = {**os.environ, "GDABENCH_ENGINE_THREADS": threads}
+    with beside_busy(busy):
+        start = time.perf_counter()
+        subprocess.run([sys.executable, *COMMAND, "--out", str(out)], env=env, check=True)
+        return time.perf_counter() - start
 
 
 def engine_only(repeats: int, steps: int = 300) -> None:
@@ -62,15 +72,11 @@ def engine_only(repeats: int, steps: int = 300) -> None:
         for (threads, busy), times in arms.items():
             numba.set_num_threads(threads)
             batch.step(actions[0])  # compiled and warm
-            spinner = subprocess.Popen([sys.executable, "-c", SPIN]) if busy else None
-            time.sleep(0.2 if busy else 0)
-            start = time.perf_counter()
-            for a in actions:
-                batch.step(a)
-            times.append(time.perf_counter() - start)
-            if spinner is not None:
-                spinner.kill()
-                spinner.wait()
+            with beside_busy(busy, settle=0.2):
+                start = time.perf_counter()
+                for a in actions:
+                    batch.step(a)
+                times.append(time.perf_counter() - start)
     for (threads, busy), times in arms.items():
         rate = steps * 25 / statistics.median(times)
         print(f"{threads} thread(s), {'busy' if busy else 'quiet'}: median {statistics.median(times):.2f} s "
@@ -88,15 +94,11 @@ def loop_only(repeats: int, n: int = 20_000_000) -> None:
     times: dict[bool, list[float]] = {False: [], True: []}
     for _ in range(repeats):
         for busy in (False, True):
-            spinner = subprocess.Popen([sys.executable, "-c", SPIN]) if busy else None
-            time.sleep(0.2 if busy else 0)
-            start = time.perf_counter()
-            for _ in range(n):
-                pass
-            times[busy].append(time.perf_counter() - start)
-            if spinner is not None:
-                spinner.kill()
-                spinner.wait()
+            with beside_busy(busy, settle=0.2):
+                start = time.perf_counter()
+                for _ in range(n):
+                    pass
+                times[busy].append(time.perf_counter() - start)
     for busy, t in times.items():
         print(f"loop, {'busy' if busy else 'quiet'}: median {statistics.median(t):.3f} s "
               f"({', '.join(f'{x:.3f}' for x in t)}; load {os.getloadavg()[0]:.1f})")
