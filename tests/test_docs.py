@@ -127,8 +127,8 @@ def test_the_controllers_page_shows_the_committed_comparison_and_codesign_runs()
     page = (ROOT / "docs" / "benchmarks" / "controllers.md").read_text()
     assert "<!-- gdabench:controllers-compare -->" in page and "<!-- gdabench:controllers-codesign -->" in page
     table = hooks.controllers_compare(ROOT).splitlines()
-    rows = json.loads((ROOT / hooks.CONTROLLERS_COMPARE).read_text())
-    assert {r["task"] for r in rows} >= {"Walker-v0", "Carrier-v0", "Climber-v0"}
+    rows = [r for name in hooks.CONTROLLERS_COMPARE for r in json.loads((ROOT / name).read_text())]
+    assert {r["task"] for r in rows if r["budget"] == 12500} >= {"Walker-v0", "Carrier-v0", "Climber-v0"}
     for row in rows:
         rewards = row["rewards"]
         start = next(i for i, line in enumerate(table) if line.startswith(f"| {row['task']}, T = {row['budget']:,} |"))
@@ -530,3 +530,27 @@ def test_the_evogym_task_page_shows_the_committed_task_outputs():
     assert said["* at least 10x Evolution Gym's env steps/s"] == low["10x speed"]
     rate = next(line for line in hooks.evogym_task_misses(ROOT).splitlines() if "as many unstable bodies" in line)
     assert set(re.findall(r"`([^`]+)`", rate.split("miss it")[1]) if "miss it" in rate else []) == low["unstable rate"]
+
+
+def test_the_evogym_task_page_shows_each_disagreements_nudged_runs():
+    """The held-out episodes the simulators disagree on, each with its nudged runs' counts from the committed
+    ``task-fidelity-nudged.json`` and Fisher's p recomputed from those counts."""
+    from scipy.stats import fisher_exact
+
+    hooks = docs_hooks()
+    nudged = json.loads((ROOT / hooks.TASK_OUTPUT / "task-fidelity-nudged.json").read_text())["episodes"]
+    misses = hooks.evogym_task_misses(ROOT).splitlines()
+    table = [[c.strip(" `") for c in line.split("|")[1:-1]] for line in misses if line.startswith("| `")]
+    assert {(r[0], r[1], r[2]) for r in table} == {(n["task"], n["body"], n["gait"]) for n in nudged}
+    chance = 0
+    for n in nudged:
+        row = next(r for r in table if (r[0], r[1], r[2]) == (n["task"], n["body"], n["gait"]))
+        p = {k: 1.0 if n["voxel"][k] == n["evogym"][k] else fisher_exact(
+            [[n["voxel"][k], n["runs"] - n["voxel"][k]], [n["evogym"][k], n["runs"] - n["evogym"][k]]]).pvalue
+            for k in ("positive", "ended_early", "unstable")}
+        assert row[6] == (f"of {n['runs']}: {n['voxel']['positive']} / {n['evogym']['positive']} "
+                          f"(p {p['positive']:.2g}), {n['voxel']['ended_early']} / {n['evogym']['ended_early']} "
+                          f"(p {p['ended_early']:.2g}), {n['voxel']['unstable']} / {n['evogym']['unstable']} "
+                          f"(p {p['unstable']:.2g})")
+        chance += all(v >= 0.05 for v in p.values())
+    assert f"in {chance} of them both simulators' runs end each way" in "\n".join(misses)

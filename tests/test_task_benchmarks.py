@@ -165,7 +165,7 @@ def test_a_body_whose_batch_raises_is_found_and_the_others_kept(monkeypatch):
 
 
 def test_nudged_runs_count_each_simulators_unstable_runs():
-    assert (stability.nudges(5) / twin.NUDGE).round().tolist() == [1, -1, 2, -2, 3]
+    assert (twin.nudges(5) / twin.NUDGE).round().tolist() == [1, -1, 2, -2, 3]
     for body, unstable in ((UNSTABLE, 3), (WALKER, 0)):
         actions = stability.actions_for("wave40", twin.actuators(body), 0, 80)
         out = stability.nudged_runs("Walker-v0", body, actions, 0, 3, alone)
@@ -177,3 +177,35 @@ def test_only_episodes_unstable_in_one_simulator_are_nudged():
     result = {"unstable_bodies_voxel": [UNSTABLE.text, WALKER.text], "unstable_bodies_evogym": [UNSTABLE.text]}
     out = stability.nudged_mismatches("Walker-v0", [UNSTABLE, WALKER], 0, 10, result, 2, alone)
     assert [n["body"] for n in out] == [WALKER.text] and out[0]["runs"] == 2
+
+
+def test_fidelity_nudges_only_held_out_disagreements_and_counts_each_simulators_outcomes():
+    case = {"body": UNSTABLE.text, "gait": "wave40", "seed": 0, "setup_seed": 0}
+    played = twin.play(twin.VoxelEnv("Walker-v0", UNSTABLE), fidelity.episode_actions(case, 80))
+    flipped = {**played, "return": -played["return"]}
+    shorter, later = {**played, "steps": 80}, {**played, "steps": 70}  # to the limit; ended early, at another step
+    episodes = [
+        {**case, "part": "held-out", "ours": played, "evogym": played},  # they agree: not played again
+        {**case, "part": "calibration", "ours": played, "evogym": flipped},  # not held out
+        {**case, "part": "held-out", "ours": played, "evogym": flipped},  # signs differ
+        {**case, "part": "held-out", "ours": played, "evogym": shorter},  # one ends early, the other not
+        {**case, "part": "held-out", "ours": played, "evogym": later},  # both end early: they agree
+    ]
+    assert [fidelity.disagree(e, 80) for e in episodes] == [False, True, True, True, False]
+    out = fidelity.nudged_disagreements("Walker-v0", {"episodes": episodes}, 80, 3, alone)
+    assert len(out) == 2 and all(n["runs"] == 3 and n["gait"] == "wave40" for n in out)
+    for n in out:  # the engine stands in for Evolution Gym: the same outcomes, every run unstable at step 63
+        assert n["voxel"] == n["evogym"]
+        assert (n["voxel"]["ended_early"], n["voxel"]["unstable"], n["voxel"]["steps"]) == (3, 3, [63] * 3)
+        assert n["p_positive"] == n["p_ended_early"] == n["p_unstable"] == 1.0
+
+
+def test_nudged_outcomes_and_the_fisher_p_of_their_rates():
+    runs = [{"return": 2.0, "steps": 80, "unstable": False}, {"return": -1.0, "steps": 50, "unstable": True},
+            {"return": 0.0, "steps": 79, "unstable": False}]
+    out = fidelity.outcomes(runs, 80)
+    assert (out["positive"], out["ended_early"], out["unstable"], out["return_median"]) == (1, 2, 1, 0.0)
+    assert out["return_range"] == [-1.0, 2.0] and out["steps"] == [80, 50, 79]
+    assert fidelity.fisher_p(4, 4, 100) == 1.0
+    assert fidelity.fisher_p(0, 100, 100) < 1e-50
+    assert 0.05 < fidelity.fisher_p(2, 6, 100) < 0.3

@@ -222,6 +222,33 @@ def play(env: Twin, actions: np.ndarray) -> Episode:
             "seconds": time.perf_counter() - start}
 
 
+def play_evogym(task: str, body: gdabench.Body, actions: np.ndarray, setup_seed: int) -> Episode:
+    """Evolution Gym's episode of ``actions``, its random set-up drawn from ``setup_seed``."""
+    env = EvogymEnv(task, body, setup_seed)
+    try:
+        return play(env, actions)
+    finally:
+        env.close()
+
+
+def nudges(runs: int) -> np.ndarray:
+    """The action offsets of ``runs`` nudged runs: +1, -1, +2, -2, ... times :data:`NUDGE`."""
+    j = np.arange(runs)
+    return (j // 2 + 1) * np.where(j % 2 == 0, 1.0, -1.0) * NUDGE
+
+
+def nudged_episodes(task: str, body: gdabench.Body, actions: np.ndarray, setup_seed: int, runs: int,
+                    theirs_player: Callable[[str, gdabench.Body, np.ndarray, int], Episode] = play_evogym,
+                    ) -> tuple[list[Episode], list[Episode]]:
+    """One episode played ``runs`` times in each simulator, every action changed by a few rounding errors
+    (:func:`nudges`): the voxel engine's runs (one batch, with the set-up Evolution Gym drew from
+    ``setup_seed``) and Evolution Gym's.  What each simulator's own rounding-sized changes do to an outcome."""
+    offsets = nudges(runs)
+    theirs = [theirs_player(task, body, actions + o, setup_seed) for o in offsets]
+    ours = play_batch(task, [body] * runs, [actions + o for o in offsets], [theirs[0]["setup"]] * runs)
+    return ours, theirs
+
+
 def start_batch(task: str, bodies: Sequence[gdabench.Body], setups: Sequence[dict[str, Any]]) -> TaskBatch:
     """A batch of one environment per body, environment ``i`` reset with ``setups[i]`` imposed."""
     batch = TaskBatch(task, list(bodies))

@@ -15,6 +15,13 @@ those unstable in one only.  The goal on the held-out part: Spearman >= 0.95, si
 episode unstable in one simulator only.  ``--control`` sets Evolution Gym against itself instead, every action
 changed by 1e-14 (about a rounding error): how well any simulator that is not bit-identical can agree.
 
+A held-out episode on which the two simulators disagree (the returns' signs differ, or the episodes end
+differently) may be a chance of rounding: ``--nudges N --nudged OUT`` plays each such episode N more times in
+both simulators, every action changed by a few rounding errors (+1e-14, -1e-14, +2e-14, ...), and writes to
+OUT how often each simulator's nudged runs end with a positive return, end early and become unstable, with
+Fisher's exact p of each pair of rates: an outcome both simulators reach at similar rates is a chance of
+rounding, one that only one simulator reaches is a difference between them.
+
 Evolution Gym's episodes are written to ``--rows`` (JSON lines) as each finishes, the voxel engine's per task
 (one batch of all its episodes); a restart reads them back and plays only what is missing.  Run it in the
 venv that has both simulators::
@@ -37,12 +44,13 @@ import numpy as np
 from evogym_twin import (
     NUDGE,
     Episode,
-    EvogymEnv,
     NudgedEvogym,
     Rows,
     actuators,
+    nudged_episodes,
     play,
     play_batch,
+    play_evogym,
     refuse_unknown,
     require_evogym,
     rounded,
@@ -81,11 +89,7 @@ def theirs_key(task: str, case: dict[str, Any], steps: int) -> str:
 
 def play_theirs(task: str, case: dict[str, Any], steps: int) -> Episode:
     """Evolution Gym's episode of ``case``."""
-    env = EvogymEnv(task, gdabench.Body.from_text(case["body"]), case["setup_seed"])
-    try:
-        return play(env, episode_actions(case, steps))
-    finally:
-        env.close()
+    return play_evogym(task, gdabench.Body.from_text(case["body"]), episode_actions(case, steps), case["setup_seed"])
 
 
 def play_ours(task: str, todo: list[dict[str, Any]], theirs: list[Episode], steps: int) -> list[Episode]:
@@ -148,6 +152,48 @@ def run_task(task: str, todo: list[dict[str, Any]], steps: int, rows: Rows,
             "parts": part_tables(episodes), "voxel_seconds": seconds, "episodes": episodes}
 
 
+def disagree(episode: dict[str, Any], steps: int) -> bool:
+    """Do the two simulators' returns differ in sign, or does one episode end before ``steps`` (or become
+    unstable) and the other not?"""
+    ours, theirs = episode["ours"], episode["evogym"]
+    return bool(np.sign(ours["return"]) != np.sign(theirs["return"])
+                or (ours["steps"] < steps) != (theirs["steps"] < steps) or ours["unstable"] != theirs["unstable"])
+
+
+def outcomes(runs: list[Episode], steps: int) -> dict[str, Any]:
+    """How a simulator's nudged runs of one episode ended."""
+    returns = [r["return"] for r in runs]
+    return {"positive": sum(r > 0 for r in returns), "ended_early": sum(r["steps"] < steps for r in runs),
+            "unstable": sum(r["unstable"] for r in runs), "return_median": float(np.median(returns)),
+            "return_range": [min(returns), max(returns)], "steps": [r["steps"] for r in runs]}
+
+
+def fisher_p(a: int, b: int, n: int) -> float:
+    """Fisher's exact p (two-sided) that rates a/n and b/n are the same; 1 where they are equal."""
+    from scipy.stats import fisher_exact
+
+    return 1.0 if a == b else float(fisher_exact([[a, n - a], [b, n - b]]).pvalue)
+
+
+def nudged_disagreements(task: str, result: dict[str, Any], steps: int, runs: int,
+                         theirs_player: Callable[[str, gdabench.Body, np.ndarray, int], Episode] = play_evogym,
+                         ) -> list[dict[str, Any]]:
+    """Every held-out episode of ``result`` (:func:`run_task`'s) on which the simulators disagree, played ``runs``
+    times more in each, nudged (:func:`evogym_twin.nudged_episodes`)."""
+    out = []
+    for e in result["episodes"]:
+        if e["part"] != "held-out" or not disagree(e, steps):
+            continue
+        actions = episode_actions(e, steps)
+        ours, theirs = nudged_episodes(task, gdabench.Body.from_text(e["body"]), actions, e["setup_seed"], runs,
+                                       theirs_player)
+        voxel, evogym = outcomes(ours, len(actions)), outcomes(theirs, len(actions))
+        out.append({"task": task, "body": e["body"], "gait": e["gait"], "runs": runs, "voxel": voxel,
+                    "evogym": evogym, **{f"p_{k}": fisher_p(voxel[k], evogym[k], runs)
+                                         for k in ("positive", "ended_early", "unstable")}})
+    return out
+
+
 def write_outputs(out: Path, results: list[dict[str, Any]], settings: dict[str, Any]) -> None:
     """The per-task tables (JSON) and every episode's returns (CSV beside it)."""
     lines = ",\n".join(json.dumps({k: rounded(r[k], 4) for k in ("task", "difficulty", "steps", "parts", "error")
@@ -177,6 +223,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--part", choices=("all", *PARTS), default="all", help="play only this part's bodies")
     parser.add_argument("--control", action="store_true",
                         help=f"compare Evolution Gym with itself, its actions changed by {NUDGE:g}, instead")
+    parser.add_argument("--nudges", type=int, default=0,
+                        help="play each held-out episode the simulators disagree on this many times more in both, "
+                             "nudged (needs --nudged)")
+    parser.add_argument("--nudged", type=Path, help="with --nudges: write the nudged runs' outcomes here (JSON)")
     parser.add_argument("--rows", type=Path, help="JSON lines of finished episodes and tasks, reused on a restart")
     parser.add_argument("--out", type=Path,
                         help="write the per-task tables here (JSON) and the episodes beside it (CSV)")
@@ -185,6 +235,8 @@ def main(argv: list[str] | None = None) -> None:
     gaits = args.gaits.split(",")
     refuse_unknown("task", tasks, CATALOG)
     refuse_unknown("gait", gaits, GAITS)
+    if bool(args.nudges) != bool(args.nudged):
+        parser.error("--nudges and --nudged go together")
     require_evogym()
     numba.set_num_threads(1)
     rows = Rows(args.rows)
@@ -196,7 +248,7 @@ def main(argv: list[str] | None = None) -> None:
     print("| task | grade | part | episodes | Spearman | sign agreement | unstable ours / Evolution Gym (one only) "
           "| goal |")
     print("|---|---|---|--:|--:|--:|---|---|")
-    results = []
+    results, nudged = [], []
     for task in tasks:
         steps = min(args.steps or CATALOG[task].max_episode_steps, CATALOG[task].max_episode_steps)
         row = rows.find(kind="fidelity", task=task, settings=settings)
@@ -215,8 +267,23 @@ def main(argv: list[str] | None = None) -> None:
                   f"{round(t['unstable_evogym'] * t['episodes'])} ({round(t['unstable_ours_only'] * t['episodes'])}"
                   f" / {round(t['unstable_evogym_only'] * t['episodes'])}) | {'met' if t['goal_met'] else 'MISSED'} |",
                   flush=True)
+        if args.nudges and "error" not in r:
+            found = rows.find(kind="nudged", task=task, settings=settings, runs=args.nudges)
+            if found is None:
+                found = {"kind": "nudged", "task": task, "settings": settings, "runs": args.nudges,
+                         "result": nudged_disagreements(task, r, steps, args.nudges)}
+                rows.add(found)
+            nudged += found["result"]
+            for n in found["result"]:
+                v, t = n["voxel"], n["evogym"]
+                print(f"|   {n['body']} {n['gait']} nudged {n['runs']} times: positive {v['positive']} / "
+                      f"{t['positive']}, ended early {v['ended_early']} / {t['ended_early']}, unstable "
+                      f"{v['unstable']} / {t['unstable']} (voxel engine / Evolution Gym) |", flush=True)
     if args.out:
         write_outputs(args.out, results, settings)
+    if args.nudged:
+        args.nudged.write_text(json.dumps({"command": "benchmarks/compare/task_fidelity.py", "settings": settings,
+                                           "nudges": args.nudges, "episodes": rounded(nudged, 6)}, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -40,14 +40,13 @@ from typing import Any, Callable, Sequence
 import numba
 import numpy as np
 from evogym_twin import (
-    NUDGE,
     Episode,
-    EvogymEnv,
     Rows,
     actuators,
     evogym_installed,
-    play,
+    nudged_episodes,
     play_batch,
+    play_evogym,
     refuse_unknown,
     rounded,
 )
@@ -116,28 +115,11 @@ def check_bodies(task: str, bodies: Sequence[gdabench.Body], actions: Sequence[n
     return episodes, found
 
 
-def play_theirs(task: str, body: gdabench.Body, actions: np.ndarray, setup_seed: int) -> Episode:
-    env = EvogymEnv(task, body, setup_seed)
-    try:
-        return play(env, actions)
-    finally:
-        env.close()
-
-
-def nudges(runs: int) -> np.ndarray:
-    """The action offsets of ``runs`` nudged runs: +1, -1, +2, -2, ... times :data:`evogym_twin.NUDGE`."""
-    j = np.arange(runs)
-    return (j // 2 + 1) * np.where(j % 2 == 0, 1.0, -1.0) * NUDGE
-
-
 def nudged_runs(task: str, body: gdabench.Body, actions: np.ndarray, setup_seed: int, runs: int,
                 theirs_player: Callable[[str, gdabench.Body, np.ndarray, int], Episode]) -> dict[str, Any]:
-    """One episode played ``runs`` times in each simulator with every action nudged (:func:`nudges`): how
-    many of each simulator's runs became unstable, and at which steps (the voxel engine's runs take the set-up
-    that Evolution Gym drew from ``setup_seed``)."""
-    offsets = nudges(runs)
-    theirs = [theirs_player(task, body, actions + o, setup_seed) for o in offsets]
-    ours = play_batch(task, [body] * runs, [actions + o for o in offsets], [theirs[0]["setup"]] * runs)
+    """:func:`evogym_twin.nudged_episodes`: how many of each simulator's runs became unstable, and at which
+    steps."""
+    ours, theirs = nudged_episodes(task, body, actions, setup_seed, runs, theirs_player)
     return {
         "body": body.text, "runs": runs,
         "voxel": sum(e["unstable"] for e in ours), "evogym": sum(t["unstable"] for t in theirs),
@@ -156,7 +138,7 @@ def nudged_mismatches(task: str, bodies: Sequence[gdabench.Body], seed: int, ste
                       runs: int, theirs_player: Callable[[str, gdabench.Body, np.ndarray, int], Episode] | None = None,
                       ) -> list[dict[str, Any]]:
     """:func:`nudged_runs` of every episode of ``result`` (:func:`run_task`'s) unstable in one simulator only."""
-    theirs_player = theirs_player or play_theirs
+    theirs_player = theirs_player or play_evogym
     seeds, actions = episode_inputs(bodies, seed, steps)
     one_only = set(result["unstable_bodies_voxel"]) ^ set(result["unstable_bodies_evogym"])
     return [nudged_runs(task, b, actions[k], seeds[k], runs, theirs_player)
@@ -164,7 +146,7 @@ def nudged_mismatches(task: str, bodies: Sequence[gdabench.Body], seed: int, ste
 
 
 def run_task(task: str, bodies: Sequence[gdabench.Body], seed: int, steps: int, rows: Rows | None,
-             theirs_player: Callable[[str, gdabench.Body, np.ndarray, int], Episode] | None = play_theirs,
+             theirs_player: Callable[[str, gdabench.Body, np.ndarray, int], Episode] | None = play_evogym,
              ) -> dict[str, Any]:
     """Every body of ``task`` on the voxel engine, checked, and (unless ``theirs_player`` is None) on Evolution Gym."""
     seeds, actions = episode_inputs(bodies, seed, steps)
@@ -241,7 +223,7 @@ def main(argv: list[str] | None = None) -> None:
         if row is None:
             bodies = task_bodies(task, args.bodies, args.seed)
             row = {"kind": "stability", "task": task, "settings": settings,
-                   "result": run_task(task, bodies, args.seed, steps, rows, None if args.no_evogym else play_theirs)}
+                   "result": run_task(task, bodies, args.seed, steps, rows, None if args.no_evogym else play_evogym)}
             rows.add(row)
         r = dict(row["result"])
         if args.nudges and r.get("unstable_voxel_only", 0) + r.get("unstable_evogym_only", 0):

@@ -31,7 +31,7 @@ Generated so that they cannot drift from the code or the committed data:
   (``benchmarks/compare/task_parity.py``, ``task_fidelity.py``, ``task_stability.py``, ``task_speed.py``);
 * ``<!-- gdabench:controllers-compare -->`` and ``<!-- gdabench:controllers-codesign -->`` become the controllers
   that learn many bodies against per-body PPO (reward per body; short co-design runs), from
-  ``docs/benchmarks/output/controllers-compare-12500.json`` and ``controllers-codesign.csv``
+  ``docs/benchmarks/output/controllers-compare-<budget>.json`` and ``controllers-codesign.csv``
   (``benchmarks/figures/controllers_compare.py``, whose own tables they are);
 * ``<!-- gdabench:extras -->`` becomes the table of the optional extras in ``pyproject.toml``.
 
@@ -68,7 +68,7 @@ THESIS_BODIES = "docs/benchmarks/output/thesis-walker-bodies.csv"
 #: what benchmarks/figures/thesis_budget.py trained of them, row by row
 THESIS_BUDGET = "docs/benchmarks/output/thesis-budget.csv"
 #: benchmarks/figures/controllers_compare.py's rows (reward per body) and the co-design runs' evaluations
-CONTROLLERS_COMPARE = "docs/benchmarks/output/controllers-compare-12500.json"
+CONTROLLERS_COMPARE = ("docs/benchmarks/output/controllers-compare-12500.json",)
 CONTROLLERS_CODESIGN = "docs/benchmarks/output/controllers-codesign.csv"
 #: the outputs of the task benchmarks (benchmarks/compare/task_*.py); the controls may be missing (not run yet)
 TASK_OUTPUT = "docs/benchmarks/output"
@@ -554,22 +554,41 @@ def evogym_task_misses(root: Path) -> str:
     if not parted:
         return "\n".join(lines)
     ours, nudged = _task_episodes(root, "task-fidelity.csv"), _task_episodes(root, "task-fidelity-control.csv")
+    runs = _task_output(root, "task-fidelity-nudged.json", required=False)
+    many = {(n["task"], n["body"], n["gait"]): n for n in runs["episodes"]} if runs else {}
     show = lambda r, who: f"{float(r['return_' + who]):.4g}" + (  # noqa: E731
         f" (ended at {r['steps_' + who]}{', unstable' if r['unstable_' + who] == '1' else ''})"
         if r["steps_voxel"] != r["steps_evogym"] or r["unstable_voxel"] != r["unstable_evogym"] else "")
     lines += ["", "Held-out episodes of these tasks whose returns differ in sign, or whose episodes end differently:",
-              "", "| task | body | gait | voxel engine | Evolution Gym | Evolution Gym, actions + 1e-14 |",
-              "|---|---|---|--:|--:|--:|"]
+              "", "| task | body | gait | voxel engine | Evolution Gym | Evolution Gym, actions + 1e-14 "
+              "| nudged runs, voxel engine / Evolution Gym: return > 0, ended early, unstable (Fisher's p) |",
+              "|---|---|---|--:|--:|--:|---|"]
+    shown: list[dict[str, Any] | None] = []
     for key, r in ours.items():
         if key[0] not in parted or r["part"] != "held-out":
             continue
         a, b = float(r["return_voxel"]), float(r["return_evogym"])
         ends = (r["steps_voxel"], r["unstable_voxel"]) != (r["steps_evogym"], r["unstable_evogym"])
         if (a > 0) - (a < 0) != (b > 0) - (b < 0) or ends:  # np.sign, as task_fidelity's sign agreement
-            c = nudged.get(key)
+            c, n = nudged.get(key), many.get(key)
             lines.append(f"| `{key[0]}` | `{key[1]}` | {key[2]} | {show(r, 'voxel')} | {show(r, 'evogym')} "
-                         f"| {show(c, 'voxel') if c else 'not run'} |")
+                         f"| {show(c, 'voxel') if c else 'not run'} | {_nudged_cell(n) if n else 'not run'} |")
+            shown.append(n)
+    played = [n for n in shown if n]
+    if played:
+        chance = sum(all(n[f"p_{k}"] >= NUDGED_ALPHA for k in ("positive", "ended_early", "unstable")) for n in played)
+        lines += ["", f"Played {played[0]['runs']} more times in each simulator, nudged ({len(played)} of these "
+                  f"{len(shown)} episodes): in {chance} of them both simulators' runs end each way (return above zero, "
+                  "ended early, unstable) at rates that do not differ (Fisher's exact p >= 0.05)."]
     return "\n".join(lines)
+
+
+def _nudged_cell(n: dict[str, Any]) -> str:
+    """One episode's nudged runs (``task_fidelity.py --nudges``): how often each simulator's runs ended how."""
+    v, e, runs = n["voxel"], n["evogym"], n["runs"]
+    return (f"of {runs}: {v['positive']} / {e['positive']} (p {n['p_positive']:.2g}), "
+            f"{v['ended_early']} / {e['ended_early']} (p {n['p_ended_early']:.2g}), "
+            f"{v['unstable']} / {e['unstable']} (p {n['p_unstable']:.2g})")
 
 
 def evogym_task_parity(root: Path) -> str:
@@ -626,13 +645,20 @@ def thesis_budget(root: Path) -> str:
     return budget.markdown(budget.table(rows))
 
 
+def controllers_compare_rows(root: Path) -> list[dict[str, Any]]:
+    """The script's rows of every committed budget, in the order of ``CONTROLLERS_COMPARE``."""
+    rows: list[dict[str, Any]] = []
+    for name in CONTROLLERS_COMPARE:
+        try:
+            rows += json.loads((root / name).read_text())
+        except OSError as exc:
+            raise PluginError(f"cannot read {name}: {exc}") from exc
+    return rows
+
+
 def controllers_compare(root: Path) -> str:
     """Reward per body under each controller against per-body PPO, from the script's own rows."""
-    try:
-        rows = json.loads((root / CONTROLLERS_COMPARE).read_text())
-    except OSError as exc:
-        raise PluginError(f"cannot read {CONTROLLERS_COMPARE}: {exc}") from exc
-    return _benchmark(root, "figures/controllers_compare").markdown(rows)
+    return _benchmark(root, "figures/controllers_compare").markdown(controllers_compare_rows(root))
 
 
 def controllers_codesign(root: Path) -> str:
