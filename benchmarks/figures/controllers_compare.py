@@ -20,6 +20,14 @@ Policies are saved under ``--out`` (one folder per task, budget and way): a reru
 an interrupted measurement resumes.  One process, one torch thread: run it on a quiet machine, or beside a
 known load and say so.  ``--json`` writes every row.
 
+A measurement can be spread over processes, and over machines that share nothing but a small file: each
+task and budget keeps a record (``--record DIR``: ``DIR/<task>-<budget>.json``; by default beside the
+policies) of generation 0's rewards and of every finished way's rewards and env steps per second.
+``--ways`` runs only some ways (a recorded one is not run again) and ``--part K/N`` only every N-th child
+from the K-th (not ``modular``, whose shared policy learns from all of them); a way that needs generation 0
+trained (``parent``) trains it again, and must find the recorded rewards.  A row is printed once every way
+of every child is recorded.
+
 ``--codesign RUN,RUN,...`` instead reads finished ``gdabench compare`` runs of the same designers under
 different controllers (the co-design half of the issue's item 3), writes their evaluations to ``--csv`` and
 prints each designer's best reward per seed under each controller.
@@ -29,6 +37,8 @@ Usage::
     python benchmarks/figures/controllers_compare.py --out /tmp/controllers --budgets 12500,50000,200000
     python benchmarks/figures/controllers_compare.py --out /tmp/controllers --tasks Walker-v0,BridgeWalker-v0,Climber-v0
     python benchmarks/figures/controllers_compare.py --out /tmp/smoke --budgets 128 --population 3   # a smoke test
+    python benchmarks/figures/controllers_compare.py --out /tmp/c --budgets 200000 --ways scratch4x --part 0/2 \
+        --record docs/benchmarks/output/controllers-record   # half of one way, recorded where a commit keeps it
     python benchmarks/figures/controllers_compare.py --codesign runs/ppo,runs/parent,runs/modular --csv codesign.csv
 """
 
@@ -43,7 +53,42 @@ from pathlib import Path
 from typing import Any
 
 WAYS = ("scratch", "parent", "modular")
+#: every way a measurement trains: ``WAYS`` and the reference at 4T
+TRAINED = (*WAYS, "scratch4x")
 TOP = 5
+
+
+class Record:
+    """What the measurement of one task and budget has finished, in a small JSON file: generation 0's rewards
+    and, per way and part, each child's reward and the part's env steps per second."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        self.data: dict[str, Any] = json.loads(path.read_text()) if path.exists() else {"ways": {}}
+
+    def save(self) -> None:
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = self.path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(self.data, indent=1) + "\n")
+        tmp.replace(self.path)
+
+    def done(self, way: str, part: str) -> bool:
+        return part in self.data["ways"].get(way, {})
+
+    def add(self, way: str, part: str, hashes: list[str], rewards: list[float], speed: float) -> None:
+        self.data["ways"].setdefault(way, {})[part] = {"rewards": dict(zip(hashes, rewards)), "steps_per_second": speed}
+        self.save()
+
+    def rewards(self, way: str, hashes: list[str]) -> list[float] | None:
+        """The way's rewards of ``hashes`` in that order; None while a child is missing."""
+        found = {h: r for part in self.data["ways"].get(way, {}).values() for h, r in part["rewards"].items()}
+        return [found[h] for h in hashes] if all(h in found for h in hashes) else None
+
+    def speed(self, way: str) -> float:
+        """The way's env steps per second, its parts weighted by their children."""
+        parts = list(self.data["ways"].get(way, {}).values())
+        n = sum(len(p["rewards"]) for p in parts)
+        return sum(p["steps_per_second"] * len(p["rewards"]) for p in parts) / n if n else float("nan")
 
 
 def spearman(a: list[float], b: list[float]) -> float:
@@ -113,20 +158,28 @@ def modular_rewards(
     return out
 
 
-def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any]:
+def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any] | None:
+    """Train what ``args.ways`` and ``args.part`` ask of this task and budget that is not recorded yet; the row
+    once every way of every child is recorded, else None."""
     from gdabench import make_designer, seeding
     from gdabench.envs.voxel.env import VoxelTask
 
     env = VoxelTask(task=task)
     out = args.out / task / str(budget)
+    record = Record(args.record / f"{task}-{budget}.json" if args.record else out / "record.json")
+    part, (k, n) = args.part, (int(v) for v in args.part.split("/"))
     designer = make_designer(
         args.designer, seed=args.seed, shape=(5, 5), population=args.population, budget=2 * args.population
     )
     first = designer.ask()
     first_seeds = [seeding.evaluation_seed(args.seed, b.hash) for b in first]
     first_dirs = [out / "parent" / b.hash for b in first]
-    first_rewards, _ = ppo_rewards(env, first, first_seeds, first_dirs, timesteps=budget, init="parent")
-    designer.tell(first, first_rewards)
+    if "first" not in record.data or ("parent" in args.ways and not record.done("parent", part)):
+        first_rewards, _ = ppo_rewards(env, first, first_seeds, first_dirs, timesteps=budget, init="parent")
+        if record.data.setdefault("first", first_rewards) != first_rewards:
+            raise SystemExit(f"error: {task} at {budget}: generation 0 trained to other rewards than {record.path}")
+        record.save()
+    designer.tell(first, record.data["first"])
     children = designer.ask()
     told = {b.hash for b in first}
     parents = [
@@ -134,21 +187,28 @@ def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any]:
         for ps in (designer.proposal_parents() or [()] * len(children))
     ]
     seeds = [seeding.evaluation_seed(args.seed, b.hash) for b in children]
+    mine = list(range(k, len(children), n))
+    bodies, body_seeds = [children[i] for i in mine], [seeds[i] for i in mine]
+    for way in (w for w in TRAINED if w in args.ways and not record.done(w, part)):
+        if way == "modular":
+            got, speed = modular_rewards(env, [first, children], [first_seeds, seeds], budget, out / "modular")
+        else:
+            init = {"init": "parent"} if way == "parent" else {}
+            got, speed = ppo_rewards(
+                env, bodies, body_seeds, [out / way / b.hash for b in bodies],
+                [parents[i] for i in mine] if way == "parent" else None,
+                timesteps=4 * budget if way == "scratch4x" else budget, **init,
+            )
+        record.add(way, part, [b.hash for b in (children if way == "modular" else bodies)], got, speed)
+    hashes = [b.hash for b in children]
+    found = {way: record.rewards(way, hashes) for way in TRAINED}
+    missing = [way for way, r in found.items() if r is None]
+    if missing:
+        print(f"{task} at {budget}: recorded in {record.path}; not yet every child of: {', '.join(missing)}")
+        return None
+    rewards = {way: r for way, r in found.items() if r is not None}
+    reference = rewards["scratch4x"]
     row: dict[str, Any] = {"task": task, "budget": budget, "designer": args.designer, "children": len(children)}
-    rewards: dict[str, list[float]] = {}
-    speed: dict[str, float] = {}
-    rewards["scratch"], speed["scratch"] = ppo_rewards(
-        env, children, seeds, [out / "scratch" / b.hash for b in children], timesteps=budget
-    )
-    rewards["parent"], speed["parent"] = ppo_rewards(
-        env, children, seeds, [out / "parent" / b.hash for b in children], parents, timesteps=budget, init="parent"
-    )
-    rewards["modular"], speed["modular"] = modular_rewards(
-        env, [first, children], [first_seeds, seeds], budget, out / "modular"
-    )
-    reference, _ = ppo_rewards(
-        env, children, seeds, [out / "scratch4x" / b.hash for b in children], timesteps=4 * budget
-    )
     row["with_parent"] = sum(1 for p in parents if p)
     for way in WAYS:
         r = rewards[way]
@@ -157,8 +217,8 @@ def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any]:
         row[f"{way}_wilcoxon_p"] = paired_p(r, rewards["scratch"])
         row[f"{way}_spearman_4x"] = spearman(r, reference)
         row[f"{way}_top{TOP}_of_4x"] = top_overlap(r, reference)
-        row[f"{way}_steps_per_s"] = speed[way]
-    row["rewards"] = {**rewards, "scratch4x": reference}
+        row[f"{way}_steps_per_s"] = record.speed(way)
+    row["rewards"] = rewards
     return row
 
 
@@ -231,7 +291,7 @@ def codesign_table(rows: Any) -> str:
     return "\n".join(lines)
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, help="where policies and results are kept (resumable)")
     parser.add_argument("--tasks", default="Walker-v0", help="Evolution Gym tasks on the voxel engine, comma-separated")
@@ -240,9 +300,12 @@ def main() -> None:
     parser.add_argument("--population", type=int, default=25)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", type=Path, help="write every row (with each body's rewards) here")
+    parser.add_argument("--ways", default=",".join(TRAINED), help="the ways to train, comma-separated")
+    parser.add_argument("--part", default="0/1", help="K/N: train only every N-th child from the K-th")
+    parser.add_argument("--record", type=Path, help="keep each task and budget's record here (default: under --out)")
     parser.add_argument("--codesign", help="finished compare runs to read instead, comma-separated")
     parser.add_argument("--csv", type=Path, help="with --codesign: write their evaluations here")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if args.codesign:
         rows = codesign_rows([Path(run) for run in args.codesign.split(",")])
         if args.csv:
@@ -251,12 +314,22 @@ def main() -> None:
         return
     if args.out is None:
         parser.error("--out is required (or --codesign)")
+    args.ways = args.ways.split(",")
+    if not set(args.ways) <= set(TRAINED):
+        parser.error(f"--ways: unknown {', '.join(sorted(set(args.ways) - set(TRAINED)))} (ways: {', '.join(TRAINED)})")
+    k, _, n = args.part.partition("/")
+    if not (k.isdigit() and n.isdigit() and int(k) < int(n)):
+        parser.error(f"--part {args.part}: give K/N with 0 <= K < N")
+    if args.part != "0/1" and "modular" in args.ways:
+        parser.error("--part: modular-ppo's shared policy learns from every child; leave modular out of --ways")
     import torch
 
     torch.set_num_threads(1)
-    rows = [measure(task, int(float(b)), args) for task in args.tasks.split(",") for b in args.budgets.split(",")]
-    show(rows)
-    if args.json:
+    measured = [measure(task, int(float(b)), args) for task in args.tasks.split(",") for b in args.budgets.split(",")]
+    rows = [row for row in measured if row is not None]
+    if rows:
+        show(rows)
+    if args.json and rows:
         args.json.write_text(json.dumps(rows, indent=1))
 
 

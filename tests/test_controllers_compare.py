@@ -1,0 +1,55 @@
+"""benchmarks/figures/controllers_compare.py (issue 56): a measurement split over processes gives the one table."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from support.scripts import load_script
+
+compare = load_script("figures/controllers_compare")
+
+TOY = ["--tasks", "Walker-v0", "--budgets", "128", "--population", "4"]
+
+
+def test_ways_and_parts_run_apart_give_the_rows_of_one_run(tmp_path, capsys):
+    """Each way recorded in its own call, ``scratch`` and the 4T reference in two parts each, against the whole
+    measurement in one call: the same rewards for every child, and a row only once everything is recorded."""
+    whole = tmp_path / "whole.json"
+    compare.main([*TOY, "--out", str(tmp_path / "one"), "--json", str(whole)])
+    record = tmp_path / "record"
+    split = tmp_path / "split.json"
+    calls = [["--ways", "scratch", "--part", "0/2"], ["--ways", "scratch,scratch4x", "--part", "1/2"],
+             ["--ways", "parent,modular"], ["--ways", "scratch4x", "--part", "0/2"]]
+    for i, extra in enumerate(calls):
+        capsys.readouterr()
+        compare.main([*TOY, "--out", str(tmp_path / f"apart{i}"), "--record", str(record), "--json", str(split),
+                      *extra])
+        if i < len(calls) - 1:
+            said = capsys.readouterr().out
+            assert "not yet every child of:" in said and said.rstrip().endswith("scratch4x") and not split.exists()
+    one, apart = json.loads(whole.read_text()), json.loads(split.read_text())
+    assert one[0]["children"] >= 2 and apart[0]["rewards"] == one[0]["rewards"]
+    assert set(one[0]["rewards"]) == {"scratch", "parent", "modular", "scratch4x"}
+    kept = json.loads((record / "Walker-v0-128.json").read_text())
+    assert set(kept["ways"]["scratch"]) == {"0/2", "1/2"} and len(kept["first"]) == 4
+
+
+def test_a_record_with_other_generation_0_rewards_is_refused(tmp_path):
+    record = tmp_path / "record"
+    record.mkdir()
+    (record / "Walker-v0-128.json").write_text(json.dumps({"first": [0.0, 0.0, 0.0, 0.0], "ways": {}}))
+    with pytest.raises(SystemExit, match="generation 0 trained to other rewards"):
+        compare.main([*TOY, "--out", str(tmp_path / "out"), "--record", str(record), "--ways", "parent"])
+
+
+@pytest.mark.parametrize("extra, said", [
+    (["--ways", "scratch,bogus"], "--ways: unknown bogus"),
+    (["--part", "2/2"], "--part 2/2"),
+    (["--part", "0/2"], "leave modular out of --ways"),
+])
+def test_bad_ways_and_parts_are_refused(tmp_path, capsys, extra, said):
+    with pytest.raises(SystemExit) as exit_:
+        compare.main([*TOY, "--out", str(tmp_path), *extra])
+    assert exit_.value.code == 2 and said in capsys.readouterr().err
