@@ -14,7 +14,8 @@ For each task of ``--tasks`` and each per-body budget T of ``--budgets`` (timest
 3. prints per task and budget: each way's median child reward and the median paired difference against
    ``scratch``, with Wilcoxon's signed-rank p-value of the pairs; each way's Spearman rank correlation with
    ``scratch`` at 4T, and how many of the 4T top 5 its top 5 holds (the survivors a designer would keep); its
-   env steps per second in this process.
+   env steps per second in this process's CPU time (one torch and one engine thread: what a core gives it,
+   whatever else runs beside it).
 
 Policies are saved under ``--out`` (one folder per task, budget and way): a rerun replays what is there, so
 an interrupted measurement resumes.  One process, one torch thread: run it on a quiet machine, or beside a
@@ -51,6 +52,8 @@ import statistics
 import time
 from pathlib import Path
 from typing import Any
+
+import gdabench  # noqa: F401 - before torch: it pins torch's CPU kernels (gdabench.cpu), the same rewards on any CPU
 
 WAYS = ("scratch", "parent", "modular")
 #: every way a measurement trains: ``WAYS`` and the reference at 4T
@@ -120,9 +123,9 @@ def evaluate_rewards(
     batch = env.bodies(bodies)
     if parents is not None:
         batch = dataclasses.replace(batch, parents=parents)
-    start = time.perf_counter()
+    start = time.process_time()
     results = controller.evaluate_bodies(batch, seeds=seeds, workdirs=workdirs)
-    seconds = time.perf_counter() - start
+    seconds = time.process_time() - start
     for r in results:
         if isinstance(r, BaseException):
             raise r

@@ -68,7 +68,10 @@ THESIS_BODIES = "docs/benchmarks/output/thesis-walker-bodies.csv"
 #: what benchmarks/figures/thesis_budget.py trained of them, row by row
 THESIS_BUDGET = "docs/benchmarks/output/thesis-budget.csv"
 #: benchmarks/figures/controllers_compare.py's rows (reward per body) and the co-design runs' evaluations
-CONTROLLERS_COMPARE = ("docs/benchmarks/output/controllers-compare-12500.json",)
+CONTROLLERS_COMPARE = (
+    "docs/benchmarks/output/controllers-compare-12500.json",
+    "docs/benchmarks/output/controllers-compare-50000.json",
+)
 CONTROLLERS_CODESIGN = "docs/benchmarks/output/controllers-codesign.csv"
 #: the outputs of the task benchmarks (benchmarks/compare/task_*.py); the controls may be missing (not run yet)
 TASK_OUTPUT = "docs/benchmarks/output"
