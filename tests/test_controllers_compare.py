@@ -62,7 +62,7 @@ def test_bad_ways_and_parts_are_refused(tmp_path, capsys, extra, said):
 
 def test_the_script_pins_torchs_kernels_before_torch_loads():
     """Imported first (as when it runs), the script pins torch's CPU kernels (gdabench.cpu): its rewards are then
-    the same on any x86-64 CPU, where torch imported first would choose each CPU's own kernels."""
+    independent of the CPU's instruction set, where torch imported first would choose each CPU's own kernels."""
     from gdabench import cpu
 
     if not cpu.pinnable():

@@ -53,7 +53,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-import gdabench  # noqa: F401 - before torch: it pins torch's CPU kernels (gdabench.cpu), the same rewards on any CPU
+import gdabench  # noqa: F401 - before torch: it pins torch's CPU kernels to AVX2 (gdabench.cpu)
 
 WAYS = ("scratch", "parent", "modular")
 #: every way a measurement trains: ``WAYS`` and the reference at 4T
