@@ -170,7 +170,7 @@ def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any] 
     env = VoxelTask(task=task)
     out = args.out / task / str(budget)
     record = Record(args.record / f"{task}-{budget}.json" if args.record else out / "record.json")
-    part, (k, n) = args.part, (int(v) for v in args.part.split("/"))
+    part, (k, n) = args.part, args.every
     designer = make_designer(
         args.designer, seed=args.seed, shape=(5, 5), population=args.population, budget=2 * args.population
     )
@@ -323,6 +323,7 @@ def main(argv: list[str] | None = None) -> None:
     k, _, n = args.part.partition("/")
     if not (k.isdigit() and n.isdigit() and int(k) < int(n)):
         parser.error(f"--part {args.part}: give K/N with 0 <= K < N")
+    args.every = (int(k), int(n))
     if args.part != "0/1" and "modular" in args.ways:
         parser.error("--part: modular-ppo's shared policy learns from every child; leave modular out of --ways")
     import torch
