@@ -10,6 +10,7 @@ proportion). Smoke runs work in the test's own folder and write only there.
 
 from __future__ import annotations
 
+import ast
 import shutil
 import subprocess
 import sys
@@ -110,6 +111,41 @@ def test_a_benchmark_script_starts_and_shows_its_usage(script):
     )
     assert done.returncode == 0, done.stderr[-2000:]
     assert "usage:" in done.stdout
+
+
+#: modules that load torch when imported
+TORCH = ("torch", "tensordict", "torchrl")
+
+
+def _imports(script: Path, nested: bool) -> list[tuple[int, str]]:
+    """(line, top-level module) of each import in ``script``: at module level, or with ``nested`` anywhere."""
+    tree = ast.parse(script.read_text())
+    found = []
+    for node in ast.walk(tree) if nested else tree.body:
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, alias.name.split(".")[0]) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            found.append((node.lineno, node.module.split(".")[0]))
+    return found
+
+
+TORCH_SCRIPTS = [p for p in SCRIPTS if any(name in TORCH for _, name in _imports(p, nested=True))]
+
+
+def test_the_scripts_that_use_torch_are_found():
+    assert {"figures/gda_step.py", "figures/controllers_compare.py", "compare/ppo_clip_loss.py"} <= {
+        _name(p) for p in TORCH_SCRIPTS
+    }
+
+
+@pytest.mark.parametrize("script", TORCH_SCRIPTS, ids=_name)
+def test_a_benchmark_script_that_uses_torch_imports_gdabench_first(script):
+    """gdabench pins torch's CPU kernels when it is imported before torch (gdabench.cpu): a script that loads
+    torch first measures kernels (and rounding) that no gdabench run uses. Imported at module level, before
+    any import of torch anywhere in the script, gdabench comes first whichever function runs."""
+    first_torch = min(line for line, name in _imports(script, nested=True) if name in TORCH)
+    ours = [line for line, name in _imports(script, nested=False) if name == "gdabench"]
+    assert ours and min(ours) < first_torch, f"import gdabench at module level, before line {first_torch}"
 
 
 @pytest.mark.parametrize("name", sorted(SMOKE))

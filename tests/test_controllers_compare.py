@@ -3,10 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
 
@@ -57,18 +53,3 @@ def test_bad_ways_and_parts_are_refused(tmp_path, capsys, extra, said):
     with pytest.raises(SystemExit) as exit_:
         compare.main([*TOY, "--out", str(tmp_path), *extra])
     assert exit_.value.code == 2 and said in capsys.readouterr().err
-
-
-
-def test_the_script_pins_torchs_kernels_before_torch_loads():
-    """Imported first (as when it runs), the script pins torch's CPU kernels (gdabench.cpu): its rewards are then
-    independent of the CPU's instruction set, where torch imported first would choose each CPU's own kernels."""
-    from gdabench import cpu
-
-    if not cpu.pinnable():
-        pytest.skip("this CPU cannot run the AVX2 kernels the pin chooses")
-    env = {k: v for k, v in os.environ.items() if k not in cpu.PINS and k != cpu.ISA_VARIABLE}  # not this process's
-    code = (f"import sys; sys.path.insert(0, {str(Path(compare.__file__).parent)!r}); "
-            "import controllers_compare, torch, gdabench.cpu; print(gdabench.cpu.pinned())")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
-    assert out.stdout.split() == ["True"]

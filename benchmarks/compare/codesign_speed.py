@@ -38,6 +38,8 @@ import sys
 import time
 from typing import Any
 
+import gdabench  # noqa: F401 - before torch: it pins torch's CPU kernels to AVX2 (gdabench.cpu)
+
 SETTINGS = {
     "learning_rate": 2.5e-4, "n_steps": 128, "batch_size": 4, "n_epochs": 4, "gamma": 0.99, "gae_lambda": 0.95,
     "vf_coef": 0.5, "ent_coef": 0.01, "clip_range": 0.1, "max_grad_norm": 0.5,

@@ -22,6 +22,8 @@ import statistics
 import subprocess
 import sys
 
+import gdabench  # noqa: F401 - before torch: it pins torch's CPU kernels to AVX2 (gdabench.cpu)
+
 #: three 5x5 bodies of different kinds: a block, a walker with two legs, a sparse body
 BODIES = ["33333/33333/33333/33333/33333", "00000/44444/44444/40004/40004", "03330/03330/33333/30003/30003"]
 

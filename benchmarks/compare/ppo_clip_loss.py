@@ -34,6 +34,7 @@ import sys
 import time
 from pathlib import Path
 
+import gdabench  # noqa: F401  # isort: skip - before torch: it pins torch's CPU kernels to AVX2 (gdabench.cpu)
 import torch
 from tensordict import TensorDict
 from tensordict.nn import TensorDictModule, TensorDictSequential

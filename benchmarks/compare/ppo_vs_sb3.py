@@ -31,6 +31,8 @@ import sys
 import time
 from typing import Any
 
+import gdabench  # noqa: F401 - before torch: it pins torch's CPU kernels to AVX2 (gdabench.cpu)
+
 #: a body that walks (an open-loop gait moves it about 5.5 on Walker-v0): legs of vertical actuators
 DEFAULT_BODY = "00000/44444/44444/40004/40004"
 SB3_SETTINGS = {

@@ -22,6 +22,8 @@ import time
 import traceback
 from typing import Any
 
+import gdabench  # noqa: F401 - before torch: it pins torch's CPU kernels to AVX2 (gdabench.cpu)
+
 SCHEDULES: dict[str, dict[str, Any]] = {
     "evogym2": {},
     "evogym1": {"n_envs": 4, "batch_size": 128, "lr_schedule": "linear", "normalize_obs": True},

@@ -16,6 +16,7 @@ import statistics
 import time
 from typing import Callable
 
+import gdabench  # noqa: F401  # isort: skip - before torch: it pins torch's CPU kernels to AVX2 (gdabench.cpu)
 import torch
 import torch.nn.functional as F
 from torch import nn

@@ -19,6 +19,8 @@ from __future__ import annotations
 import argparse
 import statistics
 
+import gdabench  # noqa: F401 - before torch: it pins torch's CPU kernels to AVX2 (gdabench.cpu)
+
 SCHEDULES = {
     "evogym2": {},
     "evogym1": {"n_envs": 4, "batch_size": 128, "lr_schedule": "linear", "normalize_obs": True},

@@ -42,6 +42,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+import gdabench  # noqa: F401 - before torch: it pins torch's CPU kernels to AVX2 (gdabench.cpu)
+
 BODIES = Path(__file__).resolve().parents[2] / "docs/benchmarks/output/thesis-walker-bodies.csv"
 FIELDS = ["budget", "seed", "body", "author", "author_designer", "reward", "distance", "best_at", "unstable",
           "seconds", "cpu_seconds", "batch", "finished"]  # fmt: skip

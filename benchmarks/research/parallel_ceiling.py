@@ -22,6 +22,8 @@ import time
 
 import numpy as np
 
+import gdabench  # noqa: F401 - before torch: it pins torch's CPU kernels to AVX2 (gdabench.cpu)
+
 
 def train(epochs: int, start: mp.Barrier, out: mp.Queue) -> None:
     import torch

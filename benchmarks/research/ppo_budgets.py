@@ -37,6 +37,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import gdabench  # before torch: it pins torch's CPU kernels to AVX2 (gdabench.cpu)
+
 
 def train_bodies(names: list[str], timesteps: int, seed: int) -> list[dict]:
     import torch
@@ -80,8 +82,6 @@ def measure(names: list[str], budget: int, args: argparse.Namespace) -> list[dic
 def designer_bodies(run: str, generations: str, designer: str | None = None) -> list[list[str]]:
     """The distinct bodies of each of ``generations`` in a run's table (of ``designer``'s trials only
     if given), in the table's order: real designers' generations, offspring of selected parents."""
-    import gdabench
-
     frame = gdabench.open_run(run).evaluations()
     if designer:
         frame = frame[frame["designer"] == designer]
