@@ -36,6 +36,18 @@ def test_ways_and_parts_run_apart_give_the_rows_of_one_run(tmp_path, capsys):
     assert set(kept["ways"]["scratch"]) == {"0/2", "1/2"} and len(kept["first"]) == 4
 
 
+def test_processes_sharing_a_record_keep_each_others_parts(tmp_path):
+    """Two processes on one task and budget (the 200,000 row's parts) each read the record before the other
+    writes: each part they add is kept, and generation 0's rewards are the first recorded."""
+    path = tmp_path / "Walker-v0-128.json"
+    one, two = compare.Record(path), compare.Record(path)
+    assert one.first([1.0, 2.0]) == [1.0, 2.0] and two.first([1.0, 3.0]) == [1.0, 2.0]
+    one.add("scratch", "0/2", ["a"], [0.5], 100.0)
+    two.add("scratch", "1/2", ["b"], [0.7], 300.0)
+    kept = compare.Record(path)
+    assert kept.rewards("scratch", ["a", "b"]) == [0.5, 0.7] and kept.speed("scratch") == 200.0
+
+
 def test_a_record_with_other_generation_0_rewards_is_refused(tmp_path):
     record = tmp_path / "record"
     record.mkdir()

@@ -46,12 +46,13 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import json
 import statistics
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 import gdabench  # noqa: F401 - before torch: it pins torch's CPU kernels to AVX2 (gdabench.cpu)
 
@@ -63,24 +64,43 @@ TOP = 5
 
 class Record:
     """What the measurement of one task and budget has finished, in a small JSON file: generation 0's rewards
-    and, per way and part, each child's reward and the part's env steps per second."""
+    and, per way and part, each child's reward and the part's env steps per second.  Processes that share it
+    each add their own parts: every change reads the file again and writes it under a lock (``.<name>.lock``
+    beside it), so none loses what another added since it last read."""
 
     def __init__(self, path: Path):
         self.path = path
-        self.data: dict[str, Any] = json.loads(path.read_text()) if path.exists() else {"ways": {}}
+        self.data: dict[str, Any] = self._read()
 
-    def save(self) -> None:
+    def _read(self) -> dict[str, Any]:
+        return json.loads(self.path.read_text()) if self.path.exists() else {"ways": {}}
+
+    def reload(self) -> None:
+        self.data = self._read()
+
+    @contextlib.contextmanager
+    def _change(self) -> Iterator[dict[str, Any]]:
+        from filelock import FileLock
+
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = self.path.with_suffix(".tmp")
-        tmp.write_text(json.dumps(self.data, indent=1) + "\n")
-        tmp.replace(self.path)
+        with FileLock(self.path.with_name(f".{self.path.name}.lock")):
+            self.reload()
+            yield self.data
+            tmp = self.path.with_suffix(".tmp")
+            tmp.write_text(json.dumps(self.data, indent=1) + "\n")
+            tmp.replace(self.path)
+
+    def first(self, rewards: list[float]) -> list[float]:
+        """Generation 0's recorded rewards: ``rewards`` where none are recorded yet."""
+        with self._change() as data:
+            return data.setdefault("first", rewards)
 
     def done(self, way: str, part: str) -> bool:
         return part in self.data["ways"].get(way, {})
 
     def add(self, way: str, part: str, hashes: list[str], rewards: list[float], speed: float) -> None:
-        self.data["ways"].setdefault(way, {})[part] = {"rewards": dict(zip(hashes, rewards)), "steps_per_second": speed}
-        self.save()
+        with self._change() as data:
+            data["ways"].setdefault(way, {})[part] = {"rewards": dict(zip(hashes, rewards)), "steps_per_second": speed}
 
     def rewards(self, way: str, hashes: list[str]) -> list[float] | None:
         """The way's rewards of ``hashes`` in that order; None while a child is missing."""
@@ -179,9 +199,8 @@ def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any] 
     first_dirs = [out / "parent" / b.hash for b in first]
     if "first" not in record.data or ("parent" in args.ways and not record.done("parent", part)):
         first_rewards, _ = ppo_rewards(env, first, first_seeds, first_dirs, timesteps=budget, init="parent")
-        if record.data.setdefault("first", first_rewards) != first_rewards:
+        if record.first(first_rewards) != first_rewards:
             raise SystemExit(f"error: {task} at {budget}: generation 0 trained to other rewards than {record.path}")
-        record.save()
     designer.tell(first, record.data["first"])
     children = designer.ask()
     told = {b.hash for b in first}
@@ -203,6 +222,7 @@ def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any] 
                 timesteps=4 * budget if way == "scratch4x" else budget, **init,
             )
         record.add(way, part, [b.hash for b in (children if way == "modular" else bodies)], got, speed)
+    record.reload()  # with what processes beside this one added
     hashes = [b.hash for b in children]
     found = {way: record.rewards(way, hashes) for way in TRAINED}
     missing = [way for way, r in found.items() if r is None]
