@@ -138,6 +138,23 @@ def test_the_controllers_page_shows_the_committed_comparison_and_codesign_runs()
             assert cells[6] == f"{spearmanr(rewards[way], rewards['scratch4x']).statistic:.2f}"
             if way != "scratch":
                 assert cells[5] == f"{wilcoxon(rewards[way], rewards['scratch']).pvalue:.2g}"
+    generations = hooks.controllers_generations(ROOT).splitlines()
+    unpinned = [r for name in hooks.CONTROLLERS_UNPINNED for r in json.loads((ROOT / name).read_text())]
+    assert "<!-- gdabench:controllers-generations -->" in page and len(unpinned) >= 5
+    for column, measured in enumerate((rows, unpinned)):  # the pinned generation, then the unpinned one
+        for row in measured:
+            line = next(x for x in generations if x.startswith(f"| {row['task']}, {row['budget']:,} |"))
+            for cell, way in zip(line.split("|")[2:-1], ("parent", "modular")):
+                better = sum(a > b for a, b in zip(row["rewards"][way], row["rewards"]["scratch"]))
+                said = cell.strip().split("), ")[column]
+                assert said.startswith(f"{better} / {row['children']} (p {row[f'{way}_wilcoxon_p']:.2g}"), (way, line)
+    speeds = [[c.strip() for c in line.split("|")[1:-1]] for line in hooks.controllers_speed(ROOT).splitlines()[2:]]
+    assert "<!-- gdabench:controllers-speed -->" in page and len(speeds) == len(rows)
+    for row, cells in zip(rows, speeds):
+        base = row["scratch_steps_per_s"]
+        assert cells[:3] == [row["task"], f"{row['budget']:,}", f"{base:,.0f}"]
+        assert cells[3].endswith(f"({row['parent_steps_per_s'] / base:.2f}x)")
+        assert cells[5].startswith(f"{row['scratch4x_steps_per_s']:,.0f} (")
     runs = pd.read_csv(ROOT / hooks.CONTROLLERS_CODESIGN)
     assert set(runs["controller"]) == {"ppo", "ppo[init=parent]", "modular-ppo"} and set(runs["seed"]) == {0, 1, 2}
     codesign = [[c.strip() for c in line.split("|")[1:-1]] for line in hooks.controllers_codesign(ROOT).splitlines()]

@@ -240,6 +240,7 @@ def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any] 
         row[f"{way}_wilcoxon_p"] = paired_p(r, rewards["scratch"])
         row[f"{way}_spearman_4x"] = spearman(r, reference)
         row[f"{way}_top{TOP}_of_4x"] = top_overlap(r, reference)
+    for way in TRAINED:
         row[f"{way}_steps_per_s"] = record.speed(way)
     row["rewards"] = rewards
     return row
@@ -257,6 +258,46 @@ def show(rows: list[dict[str, Any]]) -> None:
                 f"{row[f'{way}_minus_scratch']:>10.3f}{row[f'{way}_wilcoxon_p']:>8.2g}{row[f'{way}_spearman_4x']:>8.2f}"
                 f"{row[f'{way}_top{TOP}_of_4x']:>6}{row[f'{way}_steps_per_s']:>9.0f}"
             )
+
+
+def speed_markdown(rows: list[dict[str, Any]]) -> str:
+    """Each way's env steps per second, per task and budget, and its ratio to ``scratch``'s."""
+    lines = ["| task | T | `scratch` | `parent` | `modular` | `scratch` at 4T |", "|---|--:|--:|--:|--:|--:|"]
+    for row in rows:
+        base = row["scratch_steps_per_s"]
+        cells = [f"{base:,.0f}"] + [
+            f"{row[f'{way}_steps_per_s']:,.0f} ({row[f'{way}_steps_per_s'] / base:.2f}x)" for way in TRAINED[1:]
+        ]
+        lines.append(f"| {row['task']} | {row['budget']:,} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def generations_markdown(generations: dict[str, list[dict[str, Any]]]) -> str:
+    """Per task and budget, how many children each way ends higher than ``scratch`` (and Wilcoxon's p of the
+    pairs) in each of several measurements' generations (``{label: rows}``): whether a finding holds beyond
+    one generation's draw."""
+    labels = list(generations)
+    found = {label: {(r["task"], r["budget"]): r for r in rows} for label, rows in generations.items()}
+    keys = list(dict.fromkeys(k for rows in found.values() for k in rows))
+    ways = [w for w in WAYS if w != "scratch"]
+    head = " | ".join(f"`{way}` better than `scratch`: {', '.join(labels)}" for way in ways)
+    lines = [f"| task, T | {head} |", "|---" * (len(ways) + 1) + "|"]
+    for task, budget in keys:
+        cells = []
+        for way in ways:
+            said = []
+            for label in labels:
+                row = found[label].get((task, budget))
+                if row is None:
+                    said.append("not run")
+                    continue
+                r, s = row["rewards"][way], row["rewards"]["scratch"]
+                better = sum(a > b for a, b in zip(r, s))
+                worse = ", worse" if 2 * better < len(r) and paired_p(r, s) < 0.05 else ""
+                said.append(f"{better} / {len(r)} (p {paired_p(r, s):.2g}{worse})")
+            cells.append(", ".join(said))
+        lines.append(f"| {task}, {budget:,} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
 
 
 def markdown(rows: list[dict[str, Any]]) -> str:

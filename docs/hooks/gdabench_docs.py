@@ -29,9 +29,11 @@ Generated so that they cannot drift from the code or the committed data:
   against Evolution Gym on its 32 tasks (parity steps, fidelity, stability, speed, the goals missed and Evolution
   Gym against itself), from the ``task-*.json`` and ``task-fidelity*.csv`` outputs in ``docs/benchmarks/output/``
   (``benchmarks/compare/task_parity.py``, ``task_fidelity.py``, ``task_stability.py``, ``task_speed.py``);
-* ``<!-- gdabench:controllers-compare -->`` and ``<!-- gdabench:controllers-codesign -->`` become the controllers
-  that learn many bodies against per-body PPO (reward per body; short co-design runs), from
-  ``docs/benchmarks/output/controllers-compare-<budget>.json`` and ``controllers-codesign.csv``
+* ``<!-- gdabench:controllers-compare -->``, ``<!-- gdabench:controllers-generations -->``,
+  ``<!-- gdabench:controllers-speed -->`` and ``<!-- gdabench:controllers-codesign -->`` become the controllers
+  that learn many bodies against per-body PPO (reward per body; whether it holds on a second generation; env
+  steps per second; short co-design runs), from
+  ``docs/benchmarks/output/controllers-compare-<budget>[-unpinned].json`` and ``controllers-codesign.csv``
   (``benchmarks/figures/controllers_compare.py``, whose own tables they are);
 * ``<!-- gdabench:extras -->`` becomes the table of the optional extras in ``pyproject.toml``.
 
@@ -71,6 +73,11 @@ THESIS_BUDGET = "docs/benchmarks/output/thesis-budget.csv"
 CONTROLLERS_COMPARE = (
     "docs/benchmarks/output/controllers-compare-12500.json",
     "docs/benchmarks/output/controllers-compare-50000.json",
+)
+#: the same measurement's first runs, whose torch ran the CPU's own kernels: other generations (see the page)
+CONTROLLERS_UNPINNED = (
+    "docs/benchmarks/output/controllers-compare-12500-unpinned.json",
+    "docs/benchmarks/output/controllers-compare-50000-unpinned.json",
 )
 CONTROLLERS_CODESIGN = "docs/benchmarks/output/controllers-codesign.csv"
 #: the outputs of the task benchmarks (benchmarks/compare/task_*.py); the controls may be missing (not run yet)
@@ -648,10 +655,10 @@ def thesis_budget(root: Path) -> str:
     return budget.markdown(budget.table(rows))
 
 
-def controllers_compare_rows(root: Path) -> list[dict[str, Any]]:
-    """The script's rows of every committed budget, in the order of ``CONTROLLERS_COMPARE``."""
+def controllers_compare_rows(root: Path, names: tuple[str, ...] = CONTROLLERS_COMPARE) -> list[dict[str, Any]]:
+    """The script's rows of every committed budget, in the order of ``names``."""
     rows: list[dict[str, Any]] = []
-    for name in CONTROLLERS_COMPARE:
+    for name in names:
         try:
             rows += json.loads((root / name).read_text())
         except OSError as exc:
@@ -662,6 +669,17 @@ def controllers_compare_rows(root: Path) -> list[dict[str, Any]]:
 def controllers_compare(root: Path) -> str:
     """Reward per body under each controller against per-body PPO, from the script's own rows."""
     return _benchmark(root, "figures/controllers_compare").markdown(controllers_compare_rows(root))
+
+
+def controllers_generations(root: Path) -> str:
+    """Whether each way's gain holds on both generations measured: the pinned rows and the unpinned ones."""
+    rows = {"pinned": controllers_compare_rows(root), "unpinned": controllers_compare_rows(root, CONTROLLERS_UNPINNED)}
+    return _benchmark(root, "figures/controllers_compare").generations_markdown(rows)
+
+
+def controllers_speed(root: Path) -> str:
+    """Each way's env steps per second, from the same rows."""
+    return _benchmark(root, "figures/controllers_compare").speed_markdown(controllers_compare_rows(root))
 
 
 def controllers_codesign(root: Path) -> str:
@@ -828,6 +846,8 @@ def on_page_markdown(markdown: str, page: Any, config: Any, files: Files) -> str
         "thesis-budget": lambda: thesis_budget(root),
         "thesis-budget-bodies": lambda: thesis_budget_bodies(root),
         "controllers-compare": lambda: controllers_compare(root),
+        "controllers-speed": lambda: controllers_speed(root),
+        "controllers-generations": lambda: controllers_generations(root),
         "controllers-codesign": lambda: controllers_codesign(root),
         "extras": lambda: extras_table(root),
         "evogym-tasks": evogym_tasks,
