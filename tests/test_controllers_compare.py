@@ -34,6 +34,10 @@ def test_ways_and_parts_run_apart_give_the_rows_of_one_run(tmp_path, capsys):
     assert set(one[0]["rewards"]) == {"scratch", "parent", "modular", "scratch4x"}
     kept = json.loads((record / "Walker-v0-128.json").read_text())
     assert set(kept["ways"]["scratch"]) == {"0/2", "1/2"} and len(kept["first"]) == 4
+    # read back whole, as the page's command does: every child is recorded, whatever the parts, so nothing trains
+    again = tmp_path / "again.json"
+    compare.main([*TOY, "--out", str(tmp_path / "readback"), "--record", str(record), "--json", str(again)])
+    assert json.loads(again.read_text()) == apart and not (tmp_path / "readback").exists()
 
 
 def test_processes_sharing_a_record_keep_each_others_parts(tmp_path):

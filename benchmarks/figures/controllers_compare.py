@@ -24,7 +24,7 @@ known load and say so.  ``--json`` writes every row.
 A measurement can be spread over processes, and over machines that share nothing but a small file: each
 task and budget keeps a record (``--record DIR``: ``DIR/<task>-<budget>.json``; by default beside the
 policies) of generation 0's rewards and of every finished way's rewards and env steps per second.
-``--ways`` runs only some ways (a recorded one is not run again) and ``--part K/N`` only every N-th child
+``--ways`` runs only some ways (each for the children it lacks in the record) and ``--part K/N`` only every N-th child
 from the K-th (not ``modular``, whose shared policy learns from all of them); a way that needs generation 0
 trained (``parent``) trains it again, and must find the recorded rewards.  A row is printed once every way
 of every child is recorded.
@@ -94,9 +94,6 @@ class Record:
         """Generation 0's recorded rewards: ``rewards`` where none are recorded yet."""
         with self._change() as data:
             return data.setdefault("first", rewards)
-
-    def done(self, way: str, part: str) -> bool:
-        return part in self.data["ways"].get(way, {})
 
     def add(self, way: str, part: str, hashes: list[str], rewards: list[float], speed: float) -> None:
         with self._change() as data:
@@ -197,10 +194,9 @@ def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any] 
     first = designer.ask()
     first_seeds = [seeding.evaluation_seed(args.seed, b.hash) for b in first]
     first_dirs = [out / "parent" / b.hash for b in first]
-    if "first" not in record.data or ("parent" in args.ways and not record.done("parent", part)):
-        first_rewards, _ = ppo_rewards(env, first, first_seeds, first_dirs, timesteps=budget, init="parent")
-        if record.first(first_rewards) != first_rewards:
-            raise SystemExit(f"error: {task} at {budget}: generation 0 trained to other rewards than {record.path}")
+    trained_first = "first" not in record.data
+    if trained_first:
+        record.first(ppo_rewards(env, first, first_seeds, first_dirs, timesteps=budget, init="parent")[0])
     designer.tell(first, record.data["first"])
     children = designer.ask()
     told = {b.hash for b in first}
@@ -211,7 +207,13 @@ def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any] 
     seeds = [seeding.evaluation_seed(args.seed, b.hash) for b in children]
     mine = list(range(k, len(children), n))
     bodies, body_seeds = [children[i] for i in mine], [seeds[i] for i in mine]
-    for way in (w for w in TRAINED if w in args.ways and not record.done(w, part)):
+    # a way is trained for the children it lacks, however the parts that recorded the others were cut
+    todo = [w for w in TRAINED if w in args.ways and record.rewards(w, [b.hash for b in bodies]) is None]
+    if "parent" in todo and not trained_first:  # the children start from generation 0's policies: train them here
+        first_rewards, _ = ppo_rewards(env, first, first_seeds, first_dirs, timesteps=budget, init="parent")
+        if first_rewards != record.data["first"]:
+            raise SystemExit(f"error: {task} at {budget}: generation 0 trained to other rewards than {record.path}")
+    for way in todo:
         if way == "modular":
             got, speed = modular_rewards(env, [first, children], [first_seeds, seeds], budget, out / "modular")
         else:
