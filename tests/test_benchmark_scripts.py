@@ -164,4 +164,3 @@ def test_a_figure_reproducer_runs_at_tiny_sizes(name, tmp_path):
     assert done.returncode == 0, done.stderr[-2000:]
     assert expected in done.stdout + done.stderr
     assert {p: p.stat().st_mtime_ns for p in OUTPUT.rglob("*")} == before  # docs' outputs untouched
-

@@ -194,9 +194,17 @@ def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any] 
     first = designer.ask()
     first_seeds = [seeding.evaluation_seed(args.seed, b.hash) for b in first]
     first_dirs = [out / "parent" / b.hash for b in first]
+
+    def train_first() -> None:
+        """Generation 0 trained (its policies are what ``parent``'s children start from), checked against the
+        record's rewards, or recorded where there are none yet."""
+        got, _ = ppo_rewards(env, first, first_seeds, first_dirs, timesteps=budget, init="parent")
+        if record.first(got) != got:
+            raise SystemExit(f"error: {task} at {budget}: generation 0 trained to other rewards than {record.path}")
+
     trained_first = "first" not in record.data
     if trained_first:
-        record.first(ppo_rewards(env, first, first_seeds, first_dirs, timesteps=budget, init="parent")[0])
+        train_first()
     designer.tell(first, record.data["first"])
     children = designer.ask()
     told = {b.hash for b in first}
@@ -209,10 +217,8 @@ def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any] 
     bodies, body_seeds = [children[i] for i in mine], [seeds[i] for i in mine]
     # a way is trained for the children it lacks, however the parts that recorded the others were cut
     todo = [w for w in TRAINED if w in args.ways and record.rewards(w, [b.hash for b in bodies]) is None]
-    if "parent" in todo and not trained_first:  # the children start from generation 0's policies: train them here
-        first_rewards, _ = ppo_rewards(env, first, first_seeds, first_dirs, timesteps=budget, init="parent")
-        if first_rewards != record.data["first"]:
-            raise SystemExit(f"error: {task} at {budget}: generation 0 trained to other rewards than {record.path}")
+    if "parent" in todo and not trained_first:
+        train_first()
     for way in todo:
         if way == "modular":
             got, speed = modular_rewards(env, [first, children], [first_seeds, seeds], budget, out / "modular")
@@ -294,9 +300,9 @@ def generations_markdown(generations: dict[str, list[dict[str, Any]]]) -> str:
                     said.append("not run")
                     continue
                 r, s = row["rewards"][way], row["rewards"]["scratch"]
-                better = sum(a > b for a, b in zip(r, s))
-                worse = ", worse" if 2 * better < len(r) and paired_p(r, s) < 0.05 else ""
-                said.append(f"{better} / {len(r)} (p {paired_p(r, s):.2g}{worse})")
+                better, p = sum(a > b for a, b in zip(r, s)), paired_p(r, s)
+                worse = ", worse" if 2 * better < len(r) and p < 0.05 else ""
+                said.append(f"{better} / {len(r)} (p {p:.2g}{worse})")
             cells.append(", ".join(said))
         lines.append(f"| {task}, {budget:,} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
