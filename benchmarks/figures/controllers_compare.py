@@ -60,6 +60,8 @@ WAYS = ("scratch", "parent", "modular")
 #: every way a measurement trains: ``WAYS`` and the reference at 4T
 TRAINED = (*WAYS, "scratch4x")
 TOP = 5
+#: the per-body budgets the issue asks for
+BUDGETS = (12_500, 50_000, 200_000)
 
 
 class Record:
@@ -95,6 +97,12 @@ class Record:
         with self._change() as data:
             return data.setdefault("first", rewards)
 
+    def note_children(self, hashes: list[str]) -> None:
+        """Name generation 1's children, so that a record some ways lack says how many are still to train."""
+        if self.data.get("children") != hashes:
+            with self._change() as data:
+                data.setdefault("children", hashes)
+
     def add(self, way: str, part: str, hashes: list[str], rewards: list[float], speed: float) -> None:
         with self._change() as data:
             data["ways"].setdefault(way, {})[part] = {"rewards": dict(zip(hashes, rewards)), "steps_per_second": speed}
@@ -109,6 +117,16 @@ class Record:
         parts = list(self.data["ways"].get(way, {}).values())
         n = sum(len(p["rewards"]) for p in parts)
         return sum(p["steps_per_second"] * len(p["rewards"]) for p in parts) / n if n else float("nan")
+
+    def done(self) -> dict[str, int]:
+        """How many children each way has recorded."""
+        return {way: len({h for p in self.data["ways"].get(way, {}).values() for h in p["rewards"]}) for way in TRAINED}
+
+    def children(self) -> int:
+        """Generation 1's size: named by the process that proposed it (records older than that name them in the
+        ways that finished)."""
+        recorded = {h for way in self.data["ways"].values() for part in way.values() for h in part["rewards"]}
+        return len(self.data.get("children", recorded))
 
 
 def spearman(a: list[float], b: list[float]) -> float:
@@ -207,6 +225,7 @@ def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any] 
         train_first()
     designer.tell(first, record.data["first"])
     children = designer.ask()
+    record.note_children([b.hash for b in children])
     told = {b.hash for b in first}
     parents = [
         tuple(out / "parent" / p.hash for p in ps if p.hash in told)
@@ -308,6 +327,21 @@ def generations_markdown(generations: dict[str, list[dict[str, Any]]]) -> str:
     return "\n".join(lines)
 
 
+def progress_markdown(folder: Path, tasks: list[str], budgets: tuple[int, ...] = BUDGETS) -> str:
+    """What the records in ``folder`` have finished, per task and budget: whether generation 0 is trained and
+    how many children each way has recorded (the state of a measurement that runs in pieces)."""
+    lines = ["| task | T | generation 0 | " + " | ".join(f"`{w}`" for w in WAYS) + " | `scratch` at 4T |"]
+    lines.append("|---|--:|---|" + "--:|" * len(TRAINED))
+    for budget in budgets:
+        for task in tasks:
+            record = Record(folder / f"{task}-{budget}.json")
+            n, done = record.children(), record.done()
+            first = f"trained ({len(record.data['first'])})" if "first" in record.data else "not yet"
+            cells = [f"{done[w]} / {n}" if done[w] else "not yet" for w in TRAINED]
+            lines.append(f"| {task} | {budget:,} | {first} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def markdown(rows: list[dict[str, Any]]) -> str:
     """The rows as the documentation's table: per task, each way and the reference at 4T."""
     head = (
@@ -367,7 +401,7 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, help="where policies and results are kept (resumable)")
     parser.add_argument("--tasks", default="Walker-v0", help="Evolution Gym tasks on the voxel engine, comma-separated")
-    parser.add_argument("--budgets", default="12500,50000,200000", help="timesteps per body, comma-separated")
+    parser.add_argument("--budgets", default=",".join(map(str, BUDGETS)), help="timesteps per body, comma-separated")
     parser.add_argument("--designer", default="ga", help="the designer whose generations are trained")
     parser.add_argument("--population", type=int, default=25)
     parser.add_argument("--seed", type=int, default=0)

@@ -30,11 +30,13 @@ Generated so that they cannot drift from the code or the committed data:
   Gym against itself), from the ``task-*.json`` and ``task-fidelity*.csv`` outputs in ``docs/benchmarks/output/``
   (``benchmarks/compare/task_parity.py``, ``task_fidelity.py``, ``task_stability.py``, ``task_speed.py``);
 * ``<!-- gdabench:controllers-compare -->``, ``<!-- gdabench:controllers-generations -->``,
-  ``<!-- gdabench:controllers-speed -->`` and ``<!-- gdabench:controllers-codesign -->`` become the controllers
-  that learn many bodies against per-body PPO (reward per body; whether it holds on a second generation; env
-  steps per second; short co-design runs), from
-  ``docs/benchmarks/output/controllers-compare-<budget>[-unpinned].json`` and ``controllers-codesign.csv``
-  (``benchmarks/figures/controllers_compare.py``, whose own tables they are);
+  ``<!-- gdabench:controllers-speed -->``, ``<!-- gdabench:controllers-record -->`` and
+  ``<!-- gdabench:controllers-codesign -->`` become the controllers that learn many bodies against per-body PPO
+  (reward per body; whether it holds on a second generation; env steps per second; what each task and budget's
+  record has finished; short co-design runs), from
+  ``docs/benchmarks/output/controllers-compare-<budget>[-unpinned].json``, ``controllers-record/`` and
+  ``controllers-codesign.csv`` (``benchmarks/figures/controllers_compare.py``, whose
+  own tables they are);
 * ``<!-- gdabench:extras -->`` becomes the table of the optional extras in ``pyproject.toml``.
 
 Files outside ``docs/`` that pages show or link to (the committed reference runs under
@@ -80,6 +82,8 @@ CONTROLLERS_UNPINNED = (
     "docs/benchmarks/output/controllers-compare-50000-unpinned.json",
 )
 CONTROLLERS_CODESIGN = "docs/benchmarks/output/controllers-codesign.csv"
+#: each task and budget's record of what that measurement has finished (``--record``), the rows' source
+CONTROLLERS_RECORD = "docs/benchmarks/output/controllers-record"
 #: the outputs of the task benchmarks (benchmarks/compare/task_*.py); the controls may be missing (not run yet)
 TASK_OUTPUT = "docs/benchmarks/output"
 #: issue 53's speed goal: env steps/s of a batch of 64 on one core against Evolution Gym's, on every task
@@ -682,6 +686,12 @@ def controllers_speed(root: Path) -> str:
     return _benchmark(root, "figures/controllers_compare").speed_markdown(controllers_compare_rows(root))
 
 
+def controllers_record(root: Path) -> str:
+    """What each task's record has finished at each budget the script measures, for the tasks of the rows."""
+    tasks = list(dict.fromkeys(row["task"] for row in controllers_compare_rows(root)))
+    return _benchmark(root, "figures/controllers_compare").progress_markdown(root / CONTROLLERS_RECORD, tasks)
+
+
 def controllers_codesign(root: Path) -> str:
     """The designers' best rewards per seed under each controller, from the co-design runs' evaluations."""
     import pandas as pd
@@ -847,6 +857,7 @@ def on_page_markdown(markdown: str, page: Any, config: Any, files: Files) -> str
         "thesis-budget-bodies": lambda: thesis_budget_bodies(root),
         "controllers-compare": lambda: controllers_compare(root),
         "controllers-speed": lambda: controllers_speed(root),
+        "controllers-record": lambda: controllers_record(root),
         "controllers-generations": lambda: controllers_generations(root),
         "controllers-codesign": lambda: controllers_codesign(root),
         "extras": lambda: extras_table(root),
