@@ -14,14 +14,15 @@ TOY = ["--tasks", "Walker-v0", "--budgets", "128", "--population", "4"]
 
 
 def test_ways_and_parts_run_apart_give_the_rows_of_one_run(tmp_path, capsys):
-    """Each way recorded in its own call, ``scratch`` and the 4T reference in two parts each, against the whole
-    measurement in one call: the same rewards for every child, and a row only once everything is recorded."""
+    """Each way recorded in its own call, ``scratch`` in two parts and the 4T reference in a part and then
+    whatever it lacks, against the whole measurement in one call: the same rewards for every child, and a row
+    only once everything is recorded."""
     whole = tmp_path / "whole.json"
     compare.main([*TOY, "--out", str(tmp_path / "one"), "--json", str(whole)])
     record = tmp_path / "record"
     split = tmp_path / "split.json"
     calls = [["--ways", "scratch", "--part", "0/2"], ["--ways", "scratch,scratch4x", "--part", "1/2"],
-             ["--ways", "parent,modular"], ["--ways", "scratch4x", "--part", "0/2"]]
+             ["--ways", "parent,modular"], ["--ways", "scratch4x"]]
     for i, extra in enumerate(calls):
         capsys.readouterr()
         compare.main([*TOY, "--out", str(tmp_path / f"apart{i}"), "--record", str(record), "--json", str(split),
@@ -38,6 +39,11 @@ def test_ways_and_parts_run_apart_give_the_rows_of_one_run(tmp_path, capsys):
     assert set(one[0]["rewards"]) == {"scratch", "parent", "modular", "scratch4x"}
     kept = json.loads((record / "Walker-v0-128.json").read_text())
     assert set(kept["ways"]["scratch"]) == {"0/2", "1/2"} and len(kept["first"]) == 4
+    # the last call, for every child, trained only the children the 1/2 part had not recorded, in one batch
+    lacking = kept["children"][0::2]
+    assert set(kept["ways"]["scratch4x"]["0/1"]["rewards"]) == set(lacking)
+    trained = (tmp_path / "apart3" / "Walker-v0" / "128" / "scratch4x").iterdir()
+    assert sorted(p.name for p in trained if p.is_dir()) == sorted(lacking)
     # read back whole, as the page's command does: every child is recorded, whatever the parts, so nothing trains
     again = tmp_path / "again.json"
     compare.main([*TOY, "--out", str(tmp_path / "readback"), "--record", str(record), "--json", str(again)])

@@ -24,8 +24,8 @@ known load and say so.  ``--json`` writes every row.
 A measurement can be spread over processes, and over machines that share nothing but a small file: each
 task and budget keeps a record (``--record DIR``: ``DIR/<task>-<budget>.json``; by default beside the
 policies) of generation 0's rewards and of every finished way's rewards and env steps per second.
-``--ways`` runs only some ways (each for the children it lacks in the record) and ``--part K/N`` only every N-th child
-from the K-th (not ``modular``, whose shared policy learns from all of them); a way that needs generation 0
+``--ways`` runs only some ways (each for the children no part has recorded, in one lockstep batch) and
+``--part K/N`` only every N-th child from the K-th (not ``modular``, whose shared policy learns from all of them); a way that needs generation 0
 trained (``parent``) trains it again, and must find the recorded rewards.  A row is printed once every way
 of every child is recorded.
 
@@ -104,8 +104,15 @@ class Record:
                 data.setdefault("children", hashes)
 
     def add(self, way: str, part: str, hashes: list[str], rewards: list[float], speed: float) -> None:
+        """Record children of a part (joining those the part recorded before, its speed weighted by children)."""
         with self._change() as data:
-            data["ways"].setdefault(way, {})[part] = {"rewards": dict(zip(hashes, rewards)), "steps_per_second": speed}
+            parts = data["ways"].setdefault(way, {})
+            old = parts.get(part, {"rewards": {}, "steps_per_second": 0.0})
+            n, m = len(old["rewards"]), len(hashes)
+            parts[part] = {
+                "rewards": {**old["rewards"], **dict(zip(hashes, rewards))},
+                "steps_per_second": (old["steps_per_second"] * n + speed * m) / (n + m),
+            }
 
     def rewards(self, way: str, hashes: list[str]) -> list[float] | None:
         """The way's rewards of ``hashes`` in that order; None while a child is missing."""
@@ -232,23 +239,30 @@ def measure(task: str, budget: int, args: argparse.Namespace) -> dict[str, Any] 
         for ps in (designer.proposal_parents() or [()] * len(children))
     ]
     seeds = [seeding.evaluation_seed(args.seed, b.hash) for b in children]
-    mine = list(range(k, len(children), n))
-    bodies, body_seeds = [children[i] for i in mine], [seeds[i] for i in mine]
-    # a way is trained for the children it lacks, however the parts that recorded the others were cut
-    todo = [w for w in TRAINED if w in args.ways and record.rewards(w, [b.hash for b in bodies]) is None]
+    # a way trains only the children of this part that no part has recorded: what a cut or split measurement
+    # left trains as one lockstep batch (a batch of 5 trained at about half the env steps/s of one of 17)
+    mine = range(k, len(children), n)
+    todo = {
+        way: [i for i in (range(len(children)) if way == "modular" else mine)
+              if record.rewards(way, [children[i].hash]) is None]
+        for way in TRAINED if way in args.ways
+    }  # fmt: skip
+    todo = {way: lacking for way, lacking in todo.items() if lacking}
     if "parent" in todo and not trained_first:
         train_first()
-    for way in todo:
+    for way, lacking in todo.items():
         if way == "modular":
+            lacking = list(range(len(children)))  # the shared policy learns from every child
             got, speed = modular_rewards(env, [first, children], [first_seeds, seeds], budget, out / "modular")
         else:
             init = {"init": "parent"} if way == "parent" else {}
             got, speed = ppo_rewards(
-                env, bodies, body_seeds, [out / way / b.hash for b in bodies],
-                [parents[i] for i in mine] if way == "parent" else None,
+                env, [children[i] for i in lacking], [seeds[i] for i in lacking],
+                [out / way / children[i].hash for i in lacking],
+                [parents[i] for i in lacking] if way == "parent" else None,
                 timesteps=4 * budget if way == "scratch4x" else budget, **init,
-            )
-        record.add(way, part, [b.hash for b in (children if way == "modular" else bodies)], got, speed)
+            )  # fmt: skip
+        record.add(way, part, [children[i].hash for i in lacking], got, speed)
     record.reload()  # with what processes beside this one added
     hashes = [b.hash for b in children]
     found = {way: record.rewards(way, hashes) for way in TRAINED}
