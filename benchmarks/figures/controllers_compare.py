@@ -25,9 +25,9 @@ A measurement can be spread over processes, and over machines that share nothing
 task and budget keeps a record (``--record DIR``: ``DIR/<task>-<budget>.json``; by default beside the
 policies) of generation 0's rewards and of every finished way's rewards and env steps per second.
 ``--ways`` runs only some ways (each for the children no part has recorded, in one lockstep batch) and
-``--part K/N`` only every N-th child from the K-th (not ``modular``, whose shared policy learns from all of them); a way that needs generation 0
-trained (``parent``) trains it again, and must find the recorded rewards.  A row is printed once every way
-of every child is recorded.
+``--part K/N`` only every N-th child from the K-th (not ``modular``, whose shared policy learns from all of
+them); a way that needs generation 0 trained (``parent``) trains it again, and must find the recorded
+rewards.  A row is printed once every way of every child is recorded.
 
 ``--codesign RUN,RUN,...`` instead reads finished ``gdabench compare`` runs of the same designers under
 different controllers (the co-design half of the issue's item 3), writes their evaluations to ``--csv`` and
