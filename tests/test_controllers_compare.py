@@ -30,10 +30,18 @@ def test_ways_and_parts_run_apart_give_the_rows_of_one_run(tmp_path, capsys):
         if i < len(calls) - 1:
             said = capsys.readouterr().out
             assert "not yet every child of:" in said and said.rstrip().endswith("scratch4x") and not split.exists()
-        if i == 0:  # the page's state of a measurement in pieces: half of scratch's children, nothing else
-            line = compare.progress_markdown(record, ["Walker-v0"], (128,)).splitlines()[2]
-            n = len(json.loads((record / "Walker-v0-128.json").read_text())["children"])
-            assert line == f"| Walker-v0 | 128 | trained (4) | {(n + 1) // 2} / {n} | not yet | not yet | not yet |"
+        # the page's state of a measurement in pieces, and how a finished way compares before the row is printed
+        line = compare.progress_markdown(record, ["Walker-v0"], (128,)).splitlines()[2]
+        kept = compare.Record(record / "Walker-v0-128.json")
+        children = kept.children()
+        n = len(children)
+        if i == 0:  # half of scratch's children, nothing else
+            assert line.startswith(f"| Walker-v0 | 128 | trained (4) | {(n + 1) // 2} / {n} | not yet | not yet |")
+            assert line.endswith("| not yet |  |  |")
+        if i == 2:  # every way but half the 4T reference: parent and modular against scratch, from the record
+            scratch = kept.rewards("scratch", children)
+            better = [sum(a > b for a, b in zip(kept.rewards(w, children), scratch)) for w in ("parent", "modular")]
+            assert [c.strip().split(" (")[0] for c in line.split("|")[-3:-1]] == [f"{b} / {n}" for b in better]
     one, apart = json.loads(whole.read_text()), json.loads(split.read_text())
     assert one[0]["children"] >= 2 and apart[0]["rewards"] == one[0]["rewards"]
     assert set(one[0]["rewards"]) == {"scratch", "parent", "modular", "scratch4x"}

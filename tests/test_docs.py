@@ -159,7 +159,7 @@ def test_the_controllers_page_shows_the_committed_comparison_and_codesign_runs()
     assert "<!-- gdabench:controllers-record -->" in page
     for row in rows:  # a row is read from a record that has every child of every way
         cells = next(c for c in progress if c[:2] == [row["task"], f"{row['budget']:,}"])
-        assert cells[3:] == [f"{row['children']} / {row['children']}"] * 4, cells
+        assert cells[3:] == [f"{row['children']} / {row['children']}"] * 4 + ["(its row)"] * 2, cells
     assert len(progress) == 3 * len({row["task"] for row in rows})  # every task at 12,500, 50,000 and 200,000
     runs = pd.read_csv(ROOT / hooks.CONTROLLERS_CODESIGN)
     assert set(runs["controller"]) == {"ppo", "ppo[init=parent]", "modular-ppo"} and set(runs["seed"]) == {0, 1, 2}

@@ -129,11 +129,11 @@ class Record:
         """How many children each way has recorded."""
         return {way: len({h for p in self.data["ways"].get(way, {}).values() for h in p["rewards"]}) for way in TRAINED}
 
-    def children(self) -> int:
-        """Generation 1's size: named by the process that proposed it (records older than that name them in the
-        ways that finished)."""
+    def children(self) -> list[str]:
+        """Generation 1's children: named by the process that proposed them (records older than that name them
+        in the ways that finished)."""
         recorded = {h for way in self.data["ways"].values() for part in way.values() for h in part["rewards"]}
-        return len(self.data.get("children", recorded))
+        return self.data.get("children", sorted(recorded))
 
 
 def spearman(a: list[float], b: list[float]) -> float:
@@ -313,6 +313,14 @@ def speed_markdown(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def versus(rewards: list[float], scratch: list[float]) -> str:
+    """How many children end higher than from scratch, with Wilcoxon's p of the pairs ("worse" where fewer than
+    half do, at p < 0.05)."""
+    better, p = sum(a > b for a, b in zip(rewards, scratch)), paired_p(rewards, scratch)
+    worse = ", worse" if 2 * better < len(rewards) and p < 0.05 else ""
+    return f"{better} / {len(rewards)} (p {p:.2g}{worse})"
+
+
 def generations_markdown(generations: dict[str, list[dict[str, Any]]]) -> str:
     """Per task and budget, how many children each way ends higher than ``scratch`` (and Wilcoxon's p of the
     pairs) in each of several measurements' generations (``{label: rows}``): whether a finding holds beyond
@@ -332,10 +340,7 @@ def generations_markdown(generations: dict[str, list[dict[str, Any]]]) -> str:
                 if row is None:
                     said.append("not run")
                     continue
-                r, s = row["rewards"][way], row["rewards"]["scratch"]
-                better, p = sum(a > b for a, b in zip(r, s)), paired_p(r, s)
-                worse = ", worse" if 2 * better < len(r) and p < 0.05 else ""
-                said.append(f"{better} / {len(r)} (p {p:.2g}{worse})")
+                said.append(versus(row["rewards"][way], row["rewards"]["scratch"]))
             cells.append(", ".join(said))
         lines.append(f"| {task}, {budget:,} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
@@ -343,15 +348,25 @@ def generations_markdown(generations: dict[str, list[dict[str, Any]]]) -> str:
 
 def progress_markdown(folder: Path, tasks: list[str], budgets: tuple[int, ...] = BUDGETS) -> str:
     """What the records in ``folder`` have finished, per task and budget: whether generation 0 is trained and
-    how many children each way has recorded (the state of a measurement that runs in pieces)."""
-    lines = ["| task | T | generation 0 | " + " | ".join(f"`{w}`" for w in WAYS) + " | `scratch` at 4T |"]
-    lines.append("|---|--:|---|" + "--:|" * len(TRAINED))
+    how many children each way has recorded (the state of a measurement that runs in pieces), and, until the
+    row is printed, how a way with every child recorded compares with ``scratch``."""
+    head = " | ".join(f"`{w}`" for w in WAYS) + " | `scratch` at 4T | " + " | ".join(
+        f"`{w}` better than `scratch`" for w in WAYS[1:]
+    )
+    lines = [f"| task | T | generation 0 | {head} |", "|---|--:|---|" + "--:|" * len(TRAINED) + "---|" * 2]
     for budget in budgets:
         for task in tasks:
             record = Record(folder / f"{task}-{budget}.json")
-            n, done = record.children(), record.done()
+            children, done = record.children(), record.done()
             first = f"trained ({len(record.data['first'])})" if "first" in record.data else "not yet"
-            cells = [f"{done[w]} / {n}" if done[w] else "not yet" for w in TRAINED]
+            cells = [f"{done[w]} / {len(children)}" if done[w] else "not yet" for w in TRAINED]
+            scratch = record.rewards("scratch", children)
+            for way in WAYS[1:]:
+                rewards = record.rewards(way, children)
+                if children and all(done[w] == len(children) for w in TRAINED):
+                    cells.append("(its row)")  # the tables of printed rows say it: one figure, one place
+                else:
+                    cells.append(versus(rewards, scratch) if rewards and scratch else "")
             lines.append(f"| {task} | {budget:,} | {first} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
