@@ -116,7 +116,7 @@ class Record:
 
     def rewards(self, way: str, hashes: list[str]) -> list[float] | None:
         """The way's rewards of ``hashes`` in that order; None while a child is missing."""
-        found = {h: r for part in self.data["ways"].get(way, {}).values() for h, r in part["rewards"].items()}
+        found = self._recorded(way)
         return [found[h] for h in hashes] if all(h in found for h in hashes) else None
 
     def speed(self, way: str) -> float:
@@ -125,9 +125,13 @@ class Record:
         n = sum(len(p["rewards"]) for p in parts)
         return sum(p["steps_per_second"] * len(p["rewards"]) for p in parts) / n if n else float("nan")
 
+    def _recorded(self, way: str) -> dict[str, float]:
+        """The way's reward per child, over all its parts."""
+        return {h: r for part in self.data["ways"].get(way, {}).values() for h, r in part["rewards"].items()}
+
     def done(self) -> dict[str, int]:
         """How many children each way has recorded."""
-        return {way: len({h for p in self.data["ways"].get(way, {}).values() for h in p["rewards"]}) for way in TRAINED}
+        return {way: len(self._recorded(way)) for way in TRAINED}
 
     def children(self) -> list[str]:
         """Generation 1's children: named by the process that proposed them (records older than that name them
@@ -361,12 +365,13 @@ def progress_markdown(folder: Path, tasks: list[str], budgets: tuple[int, ...] =
             first = f"trained ({len(record.data['first'])})" if "first" in record.data else "not yet"
             cells = [f"{done[w]} / {len(children)}" if done[w] else "not yet" for w in TRAINED]
             scratch = record.rewards("scratch", children)
+            complete = children and all(done[w] == len(children) for w in TRAINED)
             for way in WAYS[1:]:
-                rewards = record.rewards(way, children)
-                if children and all(done[w] == len(children) for w in TRAINED):
+                if complete:
                     cells.append("(its row)")  # the tables of printed rows say it: one figure, one place
-                else:
-                    cells.append(versus(rewards, scratch) if rewards and scratch else "")
+                    continue
+                rewards = record.rewards(way, children)
+                cells.append(versus(rewards, scratch) if rewards and scratch else "")
             lines.append(f"| {task} | {budget:,} | {first} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
